@@ -1,0 +1,29 @@
+# Quick start: `make run` (main job) and `make test` (test suite). Both create and reuse .venv.
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+export MUJOCO_GL ?= egl
+
+.PHONY: run test lint models clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev,bench]'
+	touch $(STAMP)
+
+run: $(STAMP)  ## render the four robots at their home pose into out/robots/
+	$(PY) tools/render_robots.py --out out/robots
+
+test: $(STAMP)  ## the whole test suite (what CI runs)
+	$(PY) -m pytest -q
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check . && $(VENV)/bin/mypy
+
+models: $(STAMP)  ## regenerate robot.urdf / robot.xml from model.yaml + profile.yaml
+	$(PY) tools/gen_models.py
+
+clean:
+	rm -rf $(VENV) out

@@ -1,0 +1,253 @@
+"""Whole-body kinematics on Pinocchio: control points, elbow angles, waist and vehicle.
+
+The model is the robot's generated URDF with the gripper joints locked: its configuration
+``q`` holds every unit joint (vehicle x [m], y [m], θ [rad]; waist and arm joints [rad]) and
+``nq == nv``. Call :meth:`Kinematics.update` once per cycle; every query after it reads the
+cached results.
+
+Frames
+------
+* *world*: Pinocchio's root frame, where the vehicle joints are zero.
+* *original frame*: a world-fixed frame, set at start-up to the body frame's pose at the zero
+  configuration and re-set by :meth:`reset_original_frame` to the body frame's current pose.
+* *current frame*: the body frame (profile ``body_frame``: the first waist joint or the arm
+  base), riding with the vehicle.
+
+Jacobians are ``6 x nv`` with the linear velocity of the control point first and the angular
+velocity second, both expressed in the axes of the requested frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from controller.conversions import offset_to_se3
+from controller.elbow import Swivel, swivel
+from controller.enums import FrameType, LumbarAxis, RightLeft, UnitType
+from controller.robot import Robot
+
+
+class Kinematics:
+    """Kinematic queries for one robot; not thread-safe (one instance per control loop)."""
+
+    def __init__(self, robot: Robot):
+        self.robot = robot
+        full = pin.buildModelFromUrdf(str(robot.urdf_path))
+        locked = [full.getJointId(n) for n in robot.gripper_joints]
+        model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+        assert model.nq == model.nv, "imotion models use one-DoF joints only"
+        self.nv: int = model.nv
+        #: Joint names in the order of ``q``.
+        self.joint_names: list[str] = [model.names[j] for j in range(1, model.njoints)]
+        self._q_index = {n: model.joints[model.getJointId(n)].idx_q for n in self.joint_names}
+
+        self._cp_frame: dict[RightLeft, int] = {}
+        self._flange_frame: dict[RightLeft, int] = {}
+        for side_name, arm in robot.profile.arms.items():
+            side = RightLeft[side_name]
+            flange = model.getFrameId(arm.flange, pin.BODY)
+            parent = model.frames[flange]
+            offset = offset_to_se3(arm.tool_offset.xyz, arm.tool_offset.rpy)
+            frame = pin.Frame(
+                f"control_point_{side_name.lower()}",
+                parent.parentJoint,
+                flange,
+                parent.placement * offset,
+                pin.FrameType.OP_FRAME,
+            )
+            self._flange_frame[side] = flange
+            self._cp_frame[side] = model.addFrame(frame)
+        self._body_frame = model.getFrameId(robot.profile.body_frame, pin.BODY)
+        self._elbow_frames: dict[RightLeft, tuple[int, int, int, int]] = {}
+        self._elbow_dirs: dict[RightLeft, tuple[np.ndarray, np.ndarray]] = {}
+        for side_name, ref in robot.profile.redundant_axes.elbow.items():
+            side = RightLeft[side_name]
+            first_joint = robot.model.joint(robot.unit_joints(f"{side_name}_ARM")[0])
+            base = model.getFrameId(first_joint.parent, pin.BODY)
+            ids = tuple(model.getFrameId(n, pin.BODY) for n in (ref.shoulder, ref.elbow, ref.wrist))
+            self._elbow_frames[side] = (base, *ids)
+            f = np.asarray(ref.forward, dtype=float)
+            t = np.asarray(ref.down, dtype=float)
+            self._elbow_dirs[side] = (f / np.linalg.norm(f), t / np.linalg.norm(t))
+
+        self.model = model
+        self.data = model.createData()
+        self._q = pin.neutral(model)
+        self.update(self._q)
+        self._original = self.data.oMf[self._body_frame].copy()
+        self._original_theta = 0.0
+
+    # ------------------------------------------------------------------------ indexing
+    def index(self, joint: str) -> int:
+        """Position of a joint in ``q``."""
+        return self._q_index[joint]
+
+    def unit_indices(self, unit: UnitType) -> np.ndarray:
+        """Positions in ``q`` of a unit's joints, in spec order (empty if the robot lacks it)."""
+        return np.array([self._q_index[n] for n in self.robot.unit_joints(unit.value)], dtype=int)
+
+    def home(self) -> np.ndarray:
+        """The profile's home pose as a configuration vector."""
+        q = np.zeros(self.nv)
+        for name, value in self.robot.home().items():
+            q[self._q_index[name]] = value
+        return q
+
+    @property
+    def arms(self) -> list[RightLeft]:
+        return list(self._cp_frame)
+
+    # -------------------------------------------------------------------------- update
+    def update(self, q: np.ndarray) -> None:
+        """Compute placements and Jacobians for configuration ``q`` (SI, length ``nv``)."""
+        self._q = np.asarray(q, dtype=float)
+        pin.computeJointJacobians(self.model, self.data, self._q)
+        pin.updateFramePlacements(self.model, self.data)
+
+    @property
+    def q(self) -> np.ndarray:
+        return self._q
+
+    # -------------------------------------------------------------------------- frames
+    @property
+    def original_frame(self) -> pin.SE3:
+        """The original frame's pose in the world."""
+        return self._original
+
+    def body_pose(self) -> pin.SE3:
+        """The current frame's (body frame's) pose in the world."""
+        return self.data.oMf[self._body_frame]
+
+    def reset_original_frame(self) -> None:
+        """Original frame := the body frame's current pose (``resetOriginalFrame``)."""
+        self._original = self.body_pose().copy()
+        self._original_theta = self._vehicle_theta_joint()
+
+    def _frame_of(self, frame: FrameType) -> pin.SE3:
+        return self._original if frame == FrameType.ORIGINAL_FRAME else self.body_pose()
+
+    # ------------------------------------------------------------------ control points
+    def control_point_offset(self, side: RightLeft) -> pin.SE3:
+        """The control point's pose relative to the flange [m]."""
+        flange = self.model.frames[self._flange_frame[side]].placement
+        return flange.actInv(self.model.frames[self._cp_frame[side]].placement)
+
+    def set_control_point_offset(self, side: RightLeft, offset: pin.SE3) -> None:
+        """Move the control point to ``offset`` relative to the flange [m].
+
+        Takes effect at the next :meth:`update`.
+        """
+        flange = self.model.frames[self._flange_frame[side]].placement
+        self.model.frames[self._cp_frame[side]].placement = flange * offset
+
+    def flange_pose(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> pin.SE3:
+        return self._frame_of(frame).actInv(self.data.oMf[self._flange_frame[side]])
+
+    def pose(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> pin.SE3:
+        """Control-point pose in the original or the current frame [m]."""
+        return self._frame_of(frame).actInv(self.data.oMf[self._cp_frame[side]])
+
+    def jacobian(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> np.ndarray:
+        """``6 x nv`` Jacobian of the control point in the original or the current frame.
+
+        Original frame: d/dt of the pose in that (world-fixed) frame. Current frame: d/dt of the
+        pose relative to the moving body frame, so vehicle motion does not show in it.
+        """
+        return self._frame_jacobian(self._cp_frame[side], frame)
+
+    def _frame_jacobian(self, fid: int, frame: FrameType) -> np.ndarray:
+        jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+        if frame == FrameType.ORIGINAL_FRAME:
+            rot = self._original.rotation.T
+        else:
+            # Subtract the body's rigid motion carried to the control point.
+            body = self.body_pose()
+            jb = pin.getFrameJacobian(
+                self.model, self.data, self._body_frame, pin.LOCAL_WORLD_ALIGNED
+            )
+            lever = self.data.oMf[fid].translation - body.translation
+            jac = jac - np.vstack([jb[:3] - pin.skew(lever) @ jb[3:], jb[3:]])
+            rot = body.rotation.T
+        out = np.empty_like(jac)
+        out[:3] = rot @ jac[:3]
+        out[3:] = rot @ jac[3:]
+        return out
+
+    # --------------------------------------------------------------------------- elbow
+    def has_elbow(self, side: RightLeft) -> bool:
+        return side in self._elbow_frames
+
+    def _swivel(self, side: RightLeft) -> tuple[Swivel, np.ndarray]:
+        base, fs, fe, fw = self._elbow_frames[side]
+        forward, down = self._elbow_dirs[side]
+        r_base = self.data.oMf[base].rotation
+        p = self.data.oMf
+        sw = swivel(
+            r_base.T @ p[fs].translation,
+            r_base.T @ p[fe].translation,
+            r_base.T @ p[fw].translation,
+            forward,
+            down,
+        )
+        return sw, r_base
+
+    def elbow_angle(self, side: RightLeft) -> float:
+        """Elbow (swivel) angle [rad]; see :mod:`controller.elbow` for the definition."""
+        return self._swivel(side)[0].angle
+
+    def elbow_offset(self, side: RightLeft) -> float:
+        """Distance [m] of the elbow from the shoulder-wrist line (0 = fully stretched)."""
+        return self._swivel(side)[0].offset
+
+    def elbow_jacobian(self, side: RightLeft) -> np.ndarray:
+        """``nv`` gradient of the elbow angle [rad per unit of q]; zero off the arm's joints."""
+        sw, r_base = self._swivel(side)
+        _, fs, fe, fw = self._elbow_frames[side]
+        row = np.zeros(self.nv)
+        for fid, grad in ((fs, sw.grad_shoulder), (fe, sw.grad_elbow), (fw, sw.grad_wrist)):
+            jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+            row += (r_base @ grad) @ jac[:3]
+        # The angle is invariant to the arm base's motion: keep the arm's own columns only.
+        keep = np.zeros(self.nv, dtype=bool)
+        keep[self.unit_indices(UnitType[f"{side.name}_ARM"])] = True
+        row[~keep] = 0.0
+        return row
+
+    # ------------------------------------------------------------------ waist, vehicle
+    def lumbar_axes(self) -> list[LumbarAxis]:
+        return [LumbarAxis(a) for a in self.robot.profile.redundant_axes.lumbar]
+
+    def lumbar_jacobian(self, axis: LumbarAxis) -> np.ndarray:
+        """``nv`` row mapping joint velocities to the composite waist angle's rate."""
+        row = np.zeros(self.nv)
+        for name, weight in self.robot.profile.redundant_axes.lumbar[axis.value].items():
+            row[self._q_index[name]] = weight
+        return row
+
+    def lumbar_angle(self, axis: LumbarAxis) -> float:
+        """Composite waist angle [rad] (e.g. SmartPal V lumbarRy = lower + upper pitch)."""
+        return float(self.lumbar_jacobian(axis) @ self._q)
+
+    @property
+    def has_vehicle(self) -> bool:
+        return bool(self.robot.unit_joints("VEHICLE"))
+
+    def _vehicle_theta_joint(self) -> float:
+        if not self.has_vehicle:
+            return 0.0
+        return float(self._q[self._q_index[self.robot.unit_joints("VEHICLE")[2]]])
+
+    def vehicle_pose(self) -> np.ndarray:
+        """Planar pose (x [m], y [m], θ [rad]) of the body frame in the original frame.
+
+        θ is unwrapped (taken from the θ joint), so a vehicle that turned twice reads 4π.
+        """
+        rel = self._original.actInv(self.body_pose())
+        theta = self._vehicle_theta_joint() - self._original_theta
+        return np.array([rel.translation[0], rel.translation[1], theta])
+
+    def vehicle_jacobian(self) -> np.ndarray:
+        """``3 x nv`` Jacobian of :meth:`vehicle_pose`."""
+        jac = self._frame_jacobian(self._body_frame, FrameType.ORIGINAL_FRAME)
+        return np.vstack([jac[0], jac[1], jac[5]])

@@ -1,0 +1,311 @@
+"""controller.kinematics: poses, Jacobians, self-motion, frames, offsets, public geometry."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from controller.enums import FrameType, LumbarAxis, RightLeft, UnitType
+from controller.kinematics import Kinematics
+from tests.support import kinematics, random_configuration
+
+FD_STEP = 1e-6
+FD_TOL = 1e-6
+SAMPLES = 25
+
+
+def pose_difference(a: pin.SE3, b: pin.SE3) -> tuple[float, float]:
+    """Translation [m] and rotation [rad] distance between two poses."""
+    return (
+        float(np.linalg.norm(a.translation - b.translation)),
+        float(np.linalg.norm(pin.log3(a.rotation @ b.rotation.T))),
+    )
+
+
+def numeric_pose_jacobian(kin: Kinematics, q: np.ndarray, side: RightLeft, frame: FrameType):
+    jac = np.zeros((6, kin.nv))
+    for i in range(kin.nv):
+        dq = np.zeros(kin.nv)
+        dq[i] = FD_STEP
+        kin.update(q + dq)
+        plus = kin.pose(side, frame)
+        kin.update(q - dq)
+        minus = kin.pose(side, frame)
+        jac[:3, i] = (plus.translation - minus.translation) / (2 * FD_STEP)
+        jac[3:, i] = pin.log3(plus.rotation @ minus.rotation.T) / (2 * FD_STEP)
+    kin.update(q)
+    return jac
+
+
+def numeric_gradient(kin: Kinematics, q: np.ndarray, f, circular: bool = False) -> np.ndarray:
+    """Central differences of ``f`` over every joint; ``circular`` wraps differences to ±π."""
+    rows = []
+    for i in range(kin.nv):
+        dq = np.zeros(kin.nv)
+        dq[i] = FD_STEP
+        kin.update(q + dq)
+        plus = np.atleast_1d(f())
+        kin.update(q - dq)
+        minus = np.atleast_1d(f())
+        diff = np.angle(np.exp(1j * (plus - minus))) if circular else plus - minus
+        rows.append(diff / (2 * FD_STEP))
+    kin.update(q)
+    return np.array(rows).T
+
+
+@pytest.mark.parametrize("frame", list(FrameType))
+def test_control_point_jacobian_matches_finite_differences(robot_id: str, frame: FrameType):
+    kin = kinematics(robot_id)
+    rng = np.random.default_rng(1)
+    for _ in range(SAMPLES):
+        q = random_configuration(kin, rng)
+        kin.update(q)
+        for side in kin.arms:
+            jac = kin.jacobian(side, frame)
+            assert jac.shape == (6, kin.nv)
+            err = np.abs(jac - numeric_pose_jacobian(kin, q, side, frame)).max()
+            assert err <= FD_TOL, f"{side.name} {frame.name}: {err:.3g}"
+
+
+def test_elbow_jacobian_matches_finite_differences(robot_id: str):
+    kin = kinematics(robot_id)
+    sides = [s for s in kin.arms if kin.has_elbow(s)]
+    if not sides:
+        pytest.skip(f"{robot_id} has no 7-axis arm")
+    rng = np.random.default_rng(2)
+    checked = 0
+    while checked < SAMPLES:
+        q = random_configuration(kin, rng)
+        kin.update(q)
+        for side in sides:
+            if kin.elbow_offset(side) < 0.02:  # nearly stretched: angle barely defined
+                continue
+            jac = kin.elbow_jacobian(side)
+            num = numeric_gradient(kin, q, lambda s=side: kin.elbow_angle(s), circular=True)[0]
+            assert np.abs(jac - num).max() <= FD_TOL
+            checked += 1
+
+
+def test_elbow_jacobian_is_zero_off_the_arm(robot_id: str):
+    kin = kinematics(robot_id)
+    for side in kin.arms:
+        if not kin.has_elbow(side):
+            continue
+        kin.update(kin.home())
+        jac = kin.elbow_jacobian(side)
+        arm = kin.unit_indices(UnitType[f"{side.name}_ARM"])
+        off = np.delete(jac, arm)
+        assert np.all(off == 0.0)
+        assert np.abs(jac[arm]).max() > 0.1
+
+
+def test_vehicle_jacobian_matches_finite_differences(robot_id: str):
+    kin = kinematics(robot_id)
+    if not kin.has_vehicle:
+        pytest.skip(f"{robot_id} has no vehicle")
+    rng = np.random.default_rng(3)
+    for _ in range(SAMPLES):
+        q = random_configuration(kin, rng)
+        kin.update(q)
+        num = numeric_gradient(kin, q, kin.vehicle_pose)
+        assert np.abs(kin.vehicle_jacobian() - num).max() <= FD_TOL
+
+
+def null_space_direction(kin: Kinematics, side: RightLeft, previous: np.ndarray | None):
+    """Unit self-motion direction of an arm (full-length vector), sign kept continuous."""
+    arm = kin.unit_indices(UnitType[f"{side.name}_ARM"])
+    jac = kin.jacobian(side)[:, arm]
+    n = np.zeros(kin.nv)
+    n[arm] = np.linalg.svd(jac)[2][-1]
+    if previous is not None and n @ previous < 0:
+        n = -n
+    elif previous is None and kin.elbow_jacobian(side) @ n < 0:
+        n = -n
+    return n
+
+
+@pytest.mark.parametrize("robot_id", ["pa10", "smartpal5", "seednoid"])
+def test_self_motion_moves_the_elbow_and_not_the_flange(robot_id: str):
+    """Small steps along the arm's null space: flange fixed to 1e-9 per step, elbow turns."""
+    kin = kinematics(robot_id)
+    q = kin.home()
+    for side in kin.arms:
+        kin.update(q)
+        n = None
+        start_angle = kin.elbow_angle(side)
+        start_flange = kin.flange_pose(side)
+        for _ in range(200):
+            before = kin.flange_pose(side)
+            n = null_space_direction(kin, side, n)
+            q = q + 2e-5 * n
+            kin.update(q)
+            dp, dr = pose_difference(kin.flange_pose(side), before)
+            assert dp <= 1e-9 and dr <= 1e-9, f"step moved the flange {dp:.2g} m, {dr:.2g} rad"
+        turned = kin.elbow_angle(side) - start_angle
+        assert turned > 1e-3, f"elbow turned only {turned:.3g} rad"
+        drift = pose_difference(kin.flange_pose(side), start_flange)
+        assert max(drift) <= 200e-9
+
+
+def newton_hold(kin: Kinematics, q: np.ndarray, side: RightLeft, target: pin.SE3) -> np.ndarray:
+    """Correct the arm joints until the flange is back on ``target`` (to 1e-13)."""
+    arm = kin.unit_indices(UnitType[f"{side.name}_ARM"])
+    for _ in range(20):
+        kin.update(q)
+        err = pin.log6(target.actInv(kin.flange_pose(side))).vector
+        if np.abs(err).max() < 1e-13:
+            break
+        fid = kin.model.getFrameId(kin.robot.profile.arms[side.name].flange)
+        local = pin.getFrameJacobian(kin.model, kin.data, fid, pin.LOCAL)[:, arm]
+        q = q.copy()
+        q[arm] -= np.linalg.pinv(local) @ err
+    kin.update(q)
+    return q
+
+
+@pytest.mark.parametrize("robot_id", ["pa10", "smartpal5", "seednoid"])
+def test_large_self_motion_swings_the_elbow_with_the_flange_held(robot_id: str):
+    kin = kinematics(robot_id)
+    side = RightLeft.RIGHT
+    q = kin.home()
+    kin.update(q)
+    target = kin.flange_pose(side).copy()
+    start = kin.elbow_angle(side)
+    n = None
+    for _ in range(20):
+        n = null_space_direction(kin, side, n)
+        q = newton_hold(kin, q + 0.01 * n, side, target)
+        dp, dr = pose_difference(kin.flange_pose(side), target)
+        assert dp <= 1e-9 and dr <= 1e-9
+    assert abs(kin.elbow_angle(side) - start) > math.radians(3)
+
+
+def test_pa10_zero_pose_matches_the_public_joint_placements():
+    """robots.md: J1 0.200, +0.115, +0.280, +0.170, +0.250, +0.250 (x -0.0025), +0.080."""
+    kin = kinematics("pa10")
+    kin.update(np.zeros(kin.nv))
+    expected = {
+        "J1": (0, 0, 0.2),
+        "J2": (0, 0, 0.315),
+        "J3": (0, 0, 0.595),
+        "J4": (0, 0, 0.765),
+        "J5": (0, 0, 1.015),
+        "J6": (-0.0025, 0, 1.265),
+        "J7": (-0.0025, 0, 1.345),
+    }
+    axes = {"J1": 2, "J2": 0, "J3": 2, "J4": 0, "J5": 2, "J6": 0, "J7": 2}
+    for name, xyz in expected.items():
+        jid = kin.model.getJointId(name)
+        placement = kin.data.oMi[jid]
+        assert np.allclose(placement.translation, xyz, atol=1e-12), name
+        assert np.allclose(placement.rotation, np.eye(3), atol=1e-12), name
+        axis = np.zeros(3)
+        axis[axes[name]] = 1.0
+        jac = pin.getJointJacobian(kin.model, kin.data, jid, pin.LOCAL_WORLD_ALIGNED)
+        assert np.allclose(jac[3:, kin.index(name)], axis, atol=1e-12), name
+    # Flange: wrist -> flange 0.080 above J6; arm straight up, so pose = pure translation.
+    assert np.allclose(kin.flange_pose(RightLeft.RIGHT).translation, (-0.0025, 0, 1.345))
+
+
+def test_smartpal_shoulders_and_arm_lengths_match_robots_md():
+    kin = kinematics("smartpal5")
+    kin.update(np.zeros(kin.nv))
+    world = kin.original_frame
+    for side, y in ((RightLeft.RIGHT, -0.2), (RightLeft.LEFT, 0.2)):
+        prefix = side.name[0].lower()
+
+        def at(link: str) -> np.ndarray:
+            return kin.data.oMf[kin.model.getFrameId(link)].translation
+
+        assert np.allclose(at(f"{prefix}_arm_link1"), (-0.025, y, 1.1265), atol=1e-12)
+        elbow, wrist = at(f"{prefix}_arm_link4"), at(f"{prefix}_arm_link6")
+        assert np.allclose(elbow - at(f"{prefix}_arm_link1"), (0.02, 0, -0.25), atol=1e-12)
+        assert np.allclose(wrist - elbow, (-0.02, 0, -0.28), atol=1e-12)
+        flange = world * kin.flange_pose(side)
+        assert np.allclose(flange.translation - wrist, (0, 0, -0.056), atol=1e-12)
+        tool = world * kin.pose(side)
+        assert np.allclose(tool.translation - flange.translation, (0, 0, -0.11), atol=1e-12)
+    # Waist joints at 0.4365 and 0.21 above it; the original frame sits on the first one.
+    assert np.allclose(world.translation, (0, 0, 0.4365))
+    assert np.allclose(
+        kin.data.oMi[kin.model.getJointId("lumbar_upper")].translation, (0, 0, 0.6465)
+    )
+
+
+def test_control_point_offset_is_settable_at_run_time(robot_id: str):
+    kin = kinematics(robot_id)
+    side = RightLeft.RIGHT
+    default = kin.control_point_offset(side)
+    arm = kin.robot.profile.arms["RIGHT"].tool_offset
+    assert np.allclose(default.translation, arm.xyz)
+    offset = pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([0.01, -0.02, 0.15]))
+    kin.set_control_point_offset(side, offset)
+    assert max(pose_difference(kin.control_point_offset(side), offset)) < 1e-12
+    q = kin.home()
+    kin.update(q)
+    expected = kin.flange_pose(side) * offset
+    assert max(pose_difference(kin.pose(side), expected)) < 1e-12
+    num = numeric_pose_jacobian(kin, q, side, FrameType.ORIGINAL_FRAME)
+    assert np.abs(kin.jacobian(side) - num).max() <= FD_TOL
+
+
+def test_frames_follow_the_vehicle_and_reset(robot_id: str):
+    kin = kinematics(robot_id)
+    if not kin.has_vehicle:
+        pytest.skip(f"{robot_id} has no vehicle")
+    side = RightLeft.RIGHT
+    q = kin.home()
+    kin.update(q)
+    current_before = kin.pose(side, FrameType.CURRENT_FRAME)
+    original_before = kin.pose(side, FrameType.ORIGINAL_FRAME)
+    vx, vy, vt = kin.unit_indices(UnitType.VEHICLE)
+    q[vx], q[vy], q[vt] = 1.0, -0.5, math.pi / 2
+    kin.update(q)
+    # The current frame rides with the vehicle: the control point did not move in it.
+    assert max(pose_difference(kin.pose(side, FrameType.CURRENT_FRAME), current_before)) < 1e-12
+    # In the original frame it moved by the vehicle's planar motion.
+    planar = pin.SE3(pin.rpy.rpyToMatrix(0, 0, math.pi / 2), np.array([1.0, -0.5, 0]))
+    assert max(pose_difference(kin.pose(side), planar * original_before)) < 1e-12
+    assert np.allclose(kin.vehicle_pose(), (1.0, -0.5, math.pi / 2))
+    kin.reset_original_frame()
+    assert np.allclose(kin.vehicle_pose(), 0.0)
+    assert max(pose_difference(kin.pose(side), kin.pose(side, FrameType.CURRENT_FRAME))) < 1e-12
+    # Turning on the spot twice is 4π, not 0: θ is unwrapped.
+    q[vt] += 4 * math.pi
+    kin.update(q)
+    assert kin.vehicle_pose()[2] == pytest.approx(4 * math.pi)
+
+
+def test_smartpal_lumbar_ry_is_the_sum_of_both_pitch_joints():
+    kin = kinematics("smartpal5")
+    q = kin.home()
+    q[kin.index("lumbar_lower")] = math.radians(-5)
+    q[kin.index("lumbar_upper")] = math.radians(40)
+    kin.update(q)
+    assert kin.lumbar_axes() == [LumbarAxis.Ry]
+    assert kin.lumbar_angle(LumbarAxis.Ry) == pytest.approx(math.radians(35))
+    row = kin.lumbar_jacobian(LumbarAxis.Ry)
+    assert row[kin.index("lumbar_lower")] == row[kin.index("lumbar_upper")] == 1.0
+    # Positive pitch bends the trunk forward: the shoulders (above the pivots) go forward, down.
+    shoulder = kin.model.getFrameId("r_arm_link1")
+    kin.update(kin.home())
+    before = kin.data.oMf[shoulder].translation.copy()
+    q = kin.home()
+    q[kin.index("lumbar_upper")] = math.radians(10)
+    kin.update(q)
+    after = kin.data.oMf[shoulder].translation
+    assert after[0] > before[0] + 0.05
+    assert after[2] < before[2]
+
+
+def test_unit_indices_follow_spec_order(robot_id: str):
+    kin = kinematics(robot_id)
+    for unit in UnitType:
+        names = kin.robot.unit_joints(unit.value)
+        idx = kin.unit_indices(unit)
+        assert [kin.joint_names[i] for i in idx] == list(names)
+    grippers = set(kin.robot.gripper_joints)
+    assert not grippers & set(kin.joint_names), "gripper joints are not QP variables"

@@ -1,0 +1,51 @@
+#!/usr/bin/env python3
+"""Regenerate robot.urdf and robot.xml of every shipped robot from model.yaml + profile.yaml.
+
+Usage: python tools/gen_models.py [--check] [ROBOT_ID ...]
+With --check nothing is written; the exit status is 1 when a committed file is stale.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from config import robot_ids
+from controller.model_export import export_mjcf, export_urdf
+from controller.robot import load_robot
+
+
+def generated_files(robot_id: str) -> dict[Path, str]:
+    """The text each generated file of ``robot_id`` should have."""
+    robot = load_robot(robot_id)
+    return {
+        robot.urdf_path: export_urdf(robot.model, robot.profile),
+        robot.mjcf_path: export_mjcf(robot.model, robot.profile),
+    }
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("robots", nargs="*", help="robot ids (default: all shipped)")
+    parser.add_argument("--check", action="store_true", help="only report stale files")
+    args = parser.parse_args()
+    stale = 0
+    for rid in args.robots or robot_ids():
+        for path, text in generated_files(rid).items():
+            current = path.read_text(encoding="utf-8") if path.exists() else None
+            if current == text:
+                continue
+            stale += 1
+            if args.check:
+                print(f"stale: {path}")
+            else:
+                path.write_text(text, encoding="utf-8")
+                print(f"wrote {path}")
+    return 1 if args.check and stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
