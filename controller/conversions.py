@@ -26,9 +26,12 @@ class ArgumentError(ValueError):
 def finite_array(value: object, name: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
     """``value`` as a float array; rejects non-numbers, NaN/inf and (if given) a wrong shape."""
     try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ArgumentError(f"{name}: expected numbers, got {value!r}") from None
+        raw = np.asarray(value)
+    except ValueError:  # ragged nesting
+        raw = np.asarray(None)
+    if raw.dtype.kind not in "iuf":  # strings, booleans, None, ragged lists
+        raise ArgumentError(f"{name}: expected numbers, got {value!r}")
+    arr = raw.astype(float)
     if shape is not None and arr.shape != shape:
         raise ArgumentError(f"{name}: expected shape {shape}, got {arr.shape}")
     bad = np.flatnonzero(~np.isfinite(arr.ravel()))

@@ -29,9 +29,9 @@ DEFAULT_LINK_MASS = 0.01
 
 
 class StrictModel(BaseModel):
-    """Base for config schemas: unknown keys are errors, values are immutable."""
+    """Base for config schemas: unknown keys are errors, numbers finite, values immutable."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Geom(StrictModel):

@@ -214,8 +214,7 @@ def _cross_check(p: RobotProfile, model: ModelSource) -> list[str]:
                 errors.append(f"grippers.{side}.joints[{i}]: {name!r} has no entry under 'joints'")
             elif name in unit_of:
                 errors.append(f"grippers.{side}.joints[{i}]: {name!r} is also in a unit")
-            else:
-                assert glim.lower is not None and glim.upper is not None
+            elif glim.lower is not None and glim.upper is not None:  # else: reported above
                 for what, v in (("open", g.open[i]), ("closed", g.closed[i])):
                     if not glim.lower <= v <= glim.upper:
                         errors.append(f"grippers.{side}.{what}[{i}]: {v} is outside the limits")

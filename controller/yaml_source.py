@@ -21,6 +21,8 @@ def key_path(loc: tuple[int | str, ...]) -> str:
     for item in loc:
         if isinstance(item, int):
             parts.append(f"[{item}]")
+        elif item == "[key]":  # pydantic's marker for a bad mapping key
+            parts.append(" (the key itself)")
         else:
             parts.append(("." if parts else "") + str(item))
     return "".join(parts) or "<top level>"
