@@ -38,6 +38,7 @@ Degenerate cases
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,10 +47,6 @@ import numpy as np
 MIN_OFFSET = 1e-6
 #: ``1 + f·u`` below which ``u`` counts as the singular direction ``-forward``.
 POLE_EPS = 1e-12
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 @dataclass(frozen=True)
@@ -72,36 +69,73 @@ def reference_vector(u: np.ndarray, forward: np.ndarray, down: np.ndarray) -> np
     return down - (float(u @ down) / one_c) * (forward + u)
 
 
+Vec = tuple[float, ...]
+
+
+def _dot(a: Vec, b: Vec) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: Vec, b: Vec) -> Vec:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
 def swivel(
     s: np.ndarray, e: np.ndarray, w: np.ndarray, forward: np.ndarray, down: np.ndarray
 ) -> Swivel:
     """Elbow angle of points ``s``, ``e``, ``w`` and its gradients (all in one frame).
 
     ``forward`` and ``down`` must be unit and perpendicular (the profile loader ensures it).
-    """
-    d = w - s
-    length = float(np.linalg.norm(d))
-    u = d / length
-    a = e - s
-    one_c = 1.0 + float(forward @ u)
-    pole = one_c < POLE_EPS
-    v = reference_vector(u, forward, down)
-    b = np.cross(u, v)
-    x = float(v @ a)
-    y = float(b @ a)
-    angle = float(np.arctan2(y, x))
-    r2 = x * x + y * y
-    denom = max(r2, MIN_OFFSET * MIN_OFFSET)
+    Runs on Python floats: this is on the control loop's hot path and 3-vectors are too small
+    for numpy to pay off.
 
-    grad_a = (x * b - y * v) / denom
+    Gradient: with x = v·a, y = (u×v)·a, a = e − s, φ = atan2(y, x):
+    ∂φ/∂a = (x·b − y·v)/r², and through u = (w − s)/|w − s| via v(u) and b = u × v(u):
+    aᵀ∂v/∂u = −(a·(f+u))·∂g/∂u − g·a and aᵀ∂b/∂u = v×a + (a×u)ᵀ∂v/∂u, where
+    g = (u·t)/(1 + f·u) and ∂g/∂u = t/(1 + f·u) − (u·t)·f/(1 + f·u)².
+    """
+    sx, sy, sz = s.tolist()
+    ex, ey, ez = e.tolist()
+    wx, wy, wz = w.tolist()
+    f = tuple(forward.tolist())
+    t = tuple(down.tolist())
+    dx, dy, dz = wx - sx, wy - sy, wz - sz
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    u = (dx / length, dy / length, dz / length)
+    a = (ex - sx, ey - sy, ez - sz)
+    one_c = 1.0 + _dot(f, u)
+    pole = one_c < POLE_EPS
+    ut = _dot(u, t)
     if pole:
-        dv_du = np.zeros((3, 3))
+        v = (-t[0], -t[1], -t[2])
+        g = 0.0
     else:
-        dg_du = down / one_c - float(u @ down) * forward / (one_c * one_c)
-        g = float(u @ down) / one_c
-        dv_du = -np.outer(forward + u, dg_du) - g * np.eye(3)
-    db_du = -skew(v) + skew(u) @ dv_du
-    dphi_du = (x * (a @ db_du) - y * (a @ dv_du)) / denom
-    du_dd = (np.eye(3) - np.outer(u, u)) / length
-    grad_d = dphi_du @ du_dd
-    return Swivel(angle, -grad_a - grad_d, grad_a, grad_d, float(np.sqrt(r2)))
+        g = ut / one_c
+        v = (t[0] - g * (f[0] + u[0]), t[1] - g * (f[1] + u[1]), t[2] - g * (f[2] + u[2]))
+    b = _cross(u, v)
+    x = _dot(v, a)
+    y = _dot(b, a)
+    angle = math.atan2(y, x)
+    r2 = x * x + y * y
+    den = max(r2, MIN_OFFSET * MIN_OFFSET)
+    grad_a = ((x * b[0] - y * v[0]) / den, (x * b[1] - y * v[1]) / den, (x * b[2] - y * v[2]) / den)
+
+    va = _cross(v, a)
+    if pole:
+        a_dv: Vec = (0.0, 0.0, 0.0)
+        au_dv: Vec = (0.0, 0.0, 0.0)
+    else:
+        k1, k2 = 1.0 / one_c, ut / (one_c * one_c)
+        dg = (t[0] * k1 - f[0] * k2, t[1] * k1 - f[1] * k2, t[2] * k1 - f[2] * k2)
+        fu = (f[0] + u[0], f[1] + u[1], f[2] + u[2])
+        au = _cross(a, u)
+        c_a, c_au = _dot(a, fu), _dot(au, fu)
+        a_dv = tuple(-c_a * dg[i] - g * a[i] for i in range(3))
+        au_dv = tuple(-c_au * dg[i] - g * au[i] for i in range(3))
+    a_db = (va[0] + au_dv[0], va[1] + au_dv[1], va[2] + au_dv[2])
+    dphi_du = tuple((x * a_db[i] - y * a_dv[i]) / den for i in range(3))
+    along = _dot(dphi_du, u)
+    grad_d = tuple((dphi_du[i] - along * u[i]) / length for i in range(3))
+    grad_e = np.array(grad_a)
+    grad_w = np.array(grad_d)
+    return Swivel(angle, -grad_e - grad_w, grad_e, grad_w, math.sqrt(r2))

@@ -71,12 +71,16 @@ class Kinematics:
             t = np.asarray(ref.down, dtype=float)
             self._elbow_dirs[side] = (f / np.linalg.norm(f), t / np.linalg.norm(t))
 
+        self._units = {
+            unit: np.array([self._q_index[n] for n in robot.unit_joints(unit.value)], dtype=int)
+            for unit in UnitType
+        }
         self.model = model
         self.data = model.createData()
         self._q = pin.neutral(model)
         self.update(self._q)
-        self._original = self.data.oMf[self._body_frame].copy()
         self._original_theta = 0.0
+        self._set_original(self.data.oMf[self._body_frame].copy())
 
     # ------------------------------------------------------------------------ indexing
     def index(self, joint: str) -> int:
@@ -84,8 +88,11 @@ class Kinematics:
         return self._q_index[joint]
 
     def unit_indices(self, unit: UnitType) -> np.ndarray:
-        """Positions in ``q`` of a unit's joints, in spec order (empty if the robot lacks it)."""
-        return np.array([self._q_index[n] for n in self.robot.unit_joints(unit.value)], dtype=int)
+        """Positions in ``q`` of a unit's joints, in spec order (empty if the robot lacks it).
+
+        The array is shared: do not modify it.
+        """
+        return self._units[unit]
 
     def home(self) -> np.ndarray:
         """The profile's home pose as a configuration vector."""
@@ -121,8 +128,15 @@ class Kinematics:
 
     def reset_original_frame(self) -> None:
         """Original frame := the body frame's current pose (``resetOriginalFrame``)."""
-        self._original = self.body_pose().copy()
         self._original_theta = self._vehicle_theta_joint()
+        self._set_original(self.body_pose().copy())
+
+    def _set_original(self, pose: pin.SE3) -> None:
+        self._original = pose
+        rot6 = np.zeros((6, 6))
+        rot6[:3, :3] = rot6[3:, 3:] = pose.rotation.T
+        #: Rotation of world-aligned Jacobians into the original frame's axes (None: identity).
+        self._to_original = None if np.array_equal(pose.rotation, np.eye(3)) else rot6
 
     def _frame_of(self, frame: FrameType) -> pin.SE3:
         return self._original if frame == FrameType.ORIGINAL_FRAME else self.body_pose()
@@ -159,7 +173,7 @@ class Kinematics:
     def _frame_jacobian(self, fid: int, frame: FrameType) -> np.ndarray:
         jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
         if frame == FrameType.ORIGINAL_FRAME:
-            rot = self._original.rotation.T
+            return jac if self._to_original is None else self._to_original @ jac
         else:
             # Subtract the body's rigid motion carried to the control point.
             body = self.body_pose()
@@ -209,10 +223,10 @@ class Kinematics:
             jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
             row += (r_base @ grad) @ jac[:3]
         # The angle is invariant to the arm base's motion: keep the arm's own columns only.
-        keep = np.zeros(self.nv, dtype=bool)
-        keep[self.unit_indices(UnitType[f"{side.name}_ARM"])] = True
-        row[~keep] = 0.0
-        return row
+        arm = self.unit_indices(UnitType[f"{side.name}_ARM"])
+        out = np.zeros(self.nv)
+        out[arm] = row[arm]
+        return out
 
     # ------------------------------------------------------------------ waist, vehicle
     def lumbar_axes(self) -> list[LumbarAxis]:

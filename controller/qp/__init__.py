@@ -1,0 +1,1 @@
+"""The per-cycle whole-body QP: tasks (costs), limits (constraints), solvers, the IK step."""

@@ -1,0 +1,143 @@
+"""Tasks: costs ‖J v − e‖²_W on the joint velocities ``v`` of one cycle.
+
+Each task returns its Jacobian ``J`` (m x nv) and desired rate ``e`` (m), where
+``e = feed-forward + gain · error``: the motion generator supplies the target and its rate,
+the gain [1/s] pulls the measured state back onto it.
+
+Priorities (see :mod:`controller.qp.ik`): control-point tasks are level 1, redundant-axis
+tasks level 2 (solved in the null space of level 1), the posture task regularises both.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from controller.enums import RightLeft
+from controller.kinematics import Kinematics
+from controller.redundant_axes import RedundantAxis, axis_jacobian, axis_value
+
+#: Weight of the posture (regularisation) task, relative to weight-1 tasks of any level.
+POSTURE_WEIGHT = 1e-7
+#: Default feedback gain [1/s].
+DEFAULT_GAIN = 20.0
+#: Rotation errors are weighted as translation errors at this distance [m] from the axis.
+ROTATION_SCALE = 0.3
+#: Elbow tasks fade out when the elbow comes closer than this to the shoulder-wrist line [m].
+ELBOW_FADE = 0.02
+
+
+class Task(abc.ABC):
+    """A cost on the cycle's joint velocities."""
+
+    #: Per-row weights (length m), applied as ``W = diag(weight)``.
+    weight: np.ndarray
+    #: 1: control points; 2: redundant axes (null space of level 1); 0: regularisation, in both.
+    level: int = 1
+
+    @abc.abstractmethod
+    def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        """``(J, e)`` at the state of the last ``kin.update``."""
+
+
+class ControlPointTask(Task):
+    """Drive a control point to ``target`` (original frame) with feed-forward ``twist``.
+
+    ``twist`` [m/s, rad/s]: linear then angular velocity in the original frame's axes.
+    """
+
+    def __init__(
+        self, side: RightLeft, target: pin.SE3, gain: float = DEFAULT_GAIN, weight: float = 1.0
+    ):
+        self.side = side
+        self.target = target
+        self.twist = np.zeros(6)
+        self.gain = gain
+        self.weight = np.array([weight] * 3 + [weight * ROTATION_SCALE**2] * 3)
+
+    def set_target(self, target: pin.SE3, twist: np.ndarray | None = None) -> None:
+        self.target = target
+        self.twist = np.zeros(6) if twist is None else twist
+
+    def error(self, kin: Kinematics) -> np.ndarray:
+        """Position error [m] and rotation error [rad] (target − measured, original axes)."""
+        pose = kin.pose(self.side)
+        out = np.empty(6)
+        out[:3] = self.target.translation - pose.translation
+        out[3:] = pin.log3(self.target.rotation @ pose.rotation.T)
+        return out
+
+    def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        return kin.jacobian(self.side), self.twist + self.gain * self.error(kin)
+
+
+class AxisTask(Task):
+    """Drive one redundant axis to ``target`` [rad or m] with feed-forward ``rate``.
+
+    Level 2 by default; ``level=1`` makes it a primary task (unit moves of the vehicle).
+    """
+
+    def __init__(
+        self,
+        axis: RedundantAxis,
+        target: float,
+        gain: float = DEFAULT_GAIN,
+        weight: float = 1.0,
+        level: int = 2,
+    ):
+        self.level = level
+        self.axis = axis
+        self.target = target
+        self.rate = 0.0
+        self.gain = gain
+        self.base_weight = weight
+        self.weight = np.array([weight])
+
+    def set_target(self, target: float, rate: float = 0.0) -> None:
+        self.target = target
+        self.rate = rate
+
+    def error(self, kin: Kinematics) -> float:
+        err = self.target - axis_value(kin, self.axis)
+        return math.remainder(err, math.tau) if self.axis.is_elbow else err
+
+    def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        if self.axis.is_elbow:  # the angle loses meaning as the arm stretches: fade out
+            fade = min(1.0, kin.elbow_offset(self.axis.side) / ELBOW_FADE)
+            self.weight[0] = self.base_weight * fade * fade
+        row = axis_jacobian(kin, self.axis)
+        return row[None, :], np.array([self.rate + self.gain * self.error(kin)])
+
+
+class PostureTask(Task):
+    """Pull the joints in ``joints`` toward ``reference`` [rad, m]; keeps redundancy tame.
+
+    Level 0 (regularisation) by default; ``level=1`` with weight 1 makes it a joint-space
+    tracking task (PTP and unit moves).
+    """
+
+    def __init__(
+        self,
+        reference: np.ndarray,
+        joints: np.ndarray,
+        gain: float = 1.0,
+        weight: float = POSTURE_WEIGHT,
+        level: int = 0,
+    ):
+        self.level = level
+        self.rate = np.zeros(len(joints))
+        self.reference = np.asarray(reference, dtype=float)
+        self.joints = np.asarray(joints, dtype=int)
+        self.gain = gain
+        self.weight = np.full(len(self.joints), weight)
+        self._jac: np.ndarray | None = None
+
+    def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        if self._jac is None or self._jac.shape[1] != kin.nv:
+            self._jac = np.zeros((len(self.joints), kin.nv))
+            self._jac[np.arange(len(self.joints)), self.joints] = 1.0
+        err = self.reference[self.joints] - kin.q[self.joints]
+        return self._jac, self.rate + self.gain * err

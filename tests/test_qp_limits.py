@@ -1,0 +1,147 @@
+"""controller.qp.limits: braking-distance box bounds and redundant-axis rows."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from controller.enums import UnitType
+from controller.qp.limits import INF, AxisRows, JointBox
+from controller.redundant_axes import RedundantAxis, available_axes
+from tests.support import kinematics
+
+
+def one_joint_box(lower: float, upper: float, vmax: float, amax: float, dt: float) -> JointBox:
+    box = JointBox(kinematics("pa10"), dt)
+    box.q_min, box.q_max = np.array([lower]), np.array([upper])
+    box.v_max, box.a_max = np.array([vmax]), np.array([amax])
+    box._a_dt = box.a_max * dt
+    box.a_brake = 0.5 * box.a_max
+    box._brake_dt = box.a_brake * dt
+    box._two_over_brake = 2.0 / box.a_brake
+    box.frozen = np.zeros(1, dtype=bool)
+    return box
+
+
+def test_braking_bound_is_zero_at_the_limit_and_grows_like_sqrt():
+    box = one_joint_box(-1, 1, 10, 2.0, 0.001)
+    assert box.braking_bound(np.array([0.0]))[0] == 0.0
+    far = box.braking_bound(np.array([0.5]))[0]
+    a_b = box.a_brake[0]
+    assert far < math.sqrt(2 * a_b * 0.5)
+    assert far > math.sqrt(2 * a_b * 0.5) - a_b * 0.001 - 1e-12
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.floats(0.05, 3.0),  # half range
+    st.floats(0.1, 5.0),  # vmax
+    st.floats(0.5, 20.0),  # amax
+    st.sampled_from([0.001, 0.002, 0.004]),
+    st.lists(st.floats(-50, 50), min_size=50, max_size=50),  # wished velocities
+    st.floats(-0.99, 0.99),  # start position (fraction of range)
+)
+def test_limits_are_never_crossed_and_accelerations_respected(half, vmax, amax, dt, wish, start):
+    """Whatever velocity the tasks wish for, the clipped command stays inside the position,
+    velocity and acceleration limits (starting at rest inside the range)."""
+    box = one_joint_box(-half, half, vmax, amax, dt)
+    q = np.array([start * half])
+    v = np.zeros(1)
+    for w in wish * 8:  # 400 cycles, repeating the wishes
+        lb, ub = box.bounds(q, v)
+        assert lb[0] <= ub[0]
+        v_new = np.clip(np.array([w]), lb, ub)
+        assert abs(v_new[0]) <= vmax + 1e-12
+        assert abs(v_new[0] - v[0]) <= amax * dt * (1 + 1e-9) + 1e-12
+        v = v_new
+        q = q + v * dt
+        assert -half - 1e-12 <= q[0] <= half + 1e-12
+
+
+def test_frozen_joint_stays_still_at_rest_and_brakes_when_moving():
+    box = one_joint_box(-1, 1, 2, 4.0, 0.002)
+    box.frozen[:] = True
+    lb, ub = box.bounds(np.array([0.0]), np.array([0.0]))
+    assert lb[0] == ub[0] == 0.0
+    lb, ub = box.bounds(np.array([0.0]), np.array([1.0]))
+    assert lb[0] == ub[0] == 1.0 - 4.0 * 0.002  # decelerating as hard as allowed
+
+
+def test_beyond_a_limit_the_bound_points_back_inside():
+    box = one_joint_box(-1, 1, 2, 4.0, 0.002)
+    lb, ub = box.bounds(np.array([1.001]), np.array([0.0]))
+    assert ub[0] <= 0.0  # may not move further out
+    assert lb[0] < 0.0  # and may move back
+
+
+def test_unbounded_vehicle_joints_get_only_velocity_and_acceleration_bounds():
+    kin = kinematics("smartpal5")
+    box = JointBox(kin, 0.002)
+    q = np.zeros(kin.nv)
+    q[kin.unit_indices(UnitType.VEHICLE)] = [1e6, -1e6, 1e3]
+    lb, ub = box.bounds(q, np.zeros(kin.nv))
+    vx = kin.unit_indices(UnitType.VEHICLE)[0]
+    assert np.isfinite(lb).all() and np.isfinite(ub).all()
+    assert ub[vx] == box.a_max[vx] * 0.002
+
+
+def test_masked_axis_row_is_an_equality_and_free_axes_constrain_nothing():
+    kin = kinematics("smartpal5")
+    kin.update(kin.home())
+    axes = available_axes(kin)
+    rows = AxisRows(kin, axes, 0.002)
+    frozen = np.zeros(kin.nv, dtype=bool)
+    rows.configure(kin, {RedundantAxis.RIGHT_ELBOW: False}, {}, frozen)
+    C, lo, hi = rows.rows(kin)
+    i = axes.index(RedundantAxis.RIGHT_ELBOW)
+    assert lo[i] == hi[i] == 0.0
+    assert np.array_equal(C[i], kin.elbow_jacobian(kin.arms[0]))
+    others = [j for j in range(len(axes)) if j != i]
+    assert np.all(lo[others] == -INF) and np.all(hi[others] == INF)
+
+
+def test_axis_whose_joints_are_all_frozen_needs_no_row():
+    kin = kinematics("smartpal5")
+    kin.update(kin.home())
+    axes = available_axes(kin)
+    rows = AxisRows(kin, axes, 0.002)
+    frozen = np.zeros(kin.nv, dtype=bool)
+    frozen[kin.unit_indices(UnitType.LEFT_ARM)] = True
+    rows.configure(kin, {RedundantAxis.LEFT_ELBOW: False}, {}, frozen)
+    _, lo, _ = rows.rows(kin)
+    assert lo[axes.index(RedundantAxis.LEFT_ELBOW)] == -INF
+
+
+def test_range_row_is_linearised_and_never_demands_a_jump_back():
+    kin = kinematics("smartpal5")
+    kin.update(kin.home())
+    axes = available_axes(kin)
+    rows = AxisRows(kin, axes, 0.002)
+    i = axes.index(RedundantAxis.LUMBAR_RY)
+    frozen = np.zeros(kin.nv, dtype=bool)
+    rows.configure(kin, {}, {RedundantAxis.LUMBAR_RY: (-0.1, 0.2)}, frozen)
+    _, lo, hi = rows.rows(kin)
+    assert math.isclose(lo[i], -0.1 / 0.002) and math.isclose(hi[i], 0.2 / 0.002)
+    rows.configure(kin, {}, {RedundantAxis.LUMBAR_RY: (0.3, 0.5)}, frozen)  # now outside, below
+    _, lo, hi = rows.rows(kin)
+    assert lo[i] == 0.0 and hi[i] > 0.0
+
+
+def test_differential_base_row_forbids_sideways_motion():
+    kin = kinematics("rh")
+    q = kin.home()
+    vx, vy, vt = kin.unit_indices(UnitType.VEHICLE)
+    q[vt] = 0.7
+    kin.update(q)
+    rows = AxisRows(kin, available_axes(kin), 0.002)
+    C, lo, hi = rows.rows(kin)
+    assert lo[-1] == hi[-1] == 0.0
+    forward = np.zeros(kin.nv)
+    forward[[vx, vy]] = math.cos(0.7), math.sin(0.7)
+    sideways = np.zeros(kin.nv)
+    sideways[[vx, vy]] = -math.sin(0.7), math.cos(0.7)
+    assert abs(C[-1] @ forward) < 1e-15
+    assert abs(C[-1] @ sideways - 1.0) < 1e-15

@@ -1,0 +1,55 @@
+"""controller.qp.solver: ProxQP and qpsolvers back ends agree; failures give None."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from controller.qp.solver import INF, ProxQPSolver, QpsolversSolver, make_solver
+
+
+def random_qp(rng: np.random.Generator, n: int = 12, m: int = 4):
+    jac = rng.normal(size=(n + 3, n))
+    H = jac.T @ jac + 1e-6 * np.eye(n)
+    g = rng.normal(size=n)
+    C = rng.normal(size=(m, n))
+    lo = np.full(m, -INF)
+    hi = np.full(m, INF)
+    lo[0] = hi[0] = 0.0  # an equality row
+    lo[1], hi[1] = -0.2, 0.3
+    lb, ub = -np.ones(n), np.ones(n)
+    return H, g, C, lo, hi, lb, ub
+
+
+def test_proxqp_and_qpsolvers_agree_over_warm_started_solves():
+    rng = np.random.default_rng(7)
+    prox = ProxQPSolver(12, 4)
+    ref = QpsolversSolver(12, 4, "daqp")
+    H, g, C, lo, hi, lb, ub = random_qp(rng)
+    for _ in range(50):
+        g = g + 0.05 * rng.normal(size=g.size)
+        a = prox.solve(H, g, C, lo, hi, lb, ub)
+        b = ref.solve(H, g, C, lo, hi, lb, ub)
+        assert a is not None and b is not None
+        assert np.abs(a - b).max() < 1e-6
+        assert abs(C[0] @ a) < 1e-8
+        assert np.all(a >= lb - 1e-8) and np.all(a <= ub + 1e-8)
+
+
+@pytest.mark.parametrize("name", ["proxqp", "qpsolvers:daqp"])
+def test_infeasible_problem_returns_none_and_the_next_solve_recovers(name: str):
+    rng = np.random.default_rng(8)
+    solver = make_solver(name, 12, 4)
+    H, g, C, lo, hi, lb, ub = random_qp(rng)
+    assert solver.solve(H, g, C, lo, hi, lb, ub) is not None
+    C_bad = C.copy()
+    C_bad[2] = C_bad[0]
+    lo_bad, hi_bad = lo.copy(), hi.copy()
+    lo_bad[2] = hi_bad[2] = 5.0  # contradicts row 0 (= 0)
+    assert solver.solve(H, g, C_bad, lo_bad, hi_bad, lb, ub) is None
+    assert solver.solve(H, g, C, lo, hi, lb, ub) is not None
+
+
+def test_unknown_solver_name_is_refused():
+    with pytest.raises(ValueError, match="unknown QP solver"):
+        make_solver("gurobi", 3, 1)
