@@ -10,6 +10,11 @@ Lifecycle, as in ros2_control::
 Per cycle the loop calls :meth:`HardwareInterface.read` then :meth:`HardwareInterface.write`.
 All values are SI: [rad], [rad/s] for revolute joints, [m], [m/s] for prismatic ones (vehicle
 x/y, parallel fingers), in the order of :attr:`HardwareInterface.joint_names`.
+
+``read`` is valid in INACTIVE, ACTIVE and FAULT (the state is still measured). ``write`` moves
+the drives only when ACTIVE; a simulated backend still advances its time on every write once
+configured, so the loop keeps its rhythm with the servos off. An empty ``velocity`` in a
+:class:`JointCommand` means no feed-forward.
 """
 
 from __future__ import annotations
@@ -81,7 +86,7 @@ class HardwareInterface(abc.ABC):
 
     @abc.abstractmethod
     def read(self) -> JointState:
-        """Latest measured state (valid in INACTIVE and ACTIVE)."""
+        """Latest measured state (valid in INACTIVE, ACTIVE and FAULT)."""
 
     @abc.abstractmethod
     def write(self, command: JointCommand) -> None:

@@ -1,0 +1,145 @@
+"""Best-effort real-time setup of the control thread: SCHED_FIFO, locked memory, frozen GC.
+
+:func:`apply_realtime` tries each measure and never raises for a missing privilege or
+platform feature: what is not in effect is logged as one warning line (no traceback) and
+recorded in the returned :class:`RealtimeReport`. :func:`restore` undoes what took effect.
+
+* **SCHED_FIFO** via :func:`os.sched_setscheduler` with pid 0. On Linux the scheduling policy
+  belongs to a thread, so this changes the *calling thread* only: call it from the control
+  thread. Needs root, CAP_SYS_NICE or an rtprio limit (``LimitRTPRIO=`` in a systemd unit).
+* **mlockall(MCL_CURRENT | MCL_FUTURE)** through libc (ctypes): page faults no longer stall
+  the loop. Process-wide. Needs CAP_IPC_LOCK or a large enough ``RLIMIT_MEMLOCK``
+  (``LimitMEMLOCK=infinity``).
+* **gc.freeze()**: moves every object alive now into the permanent generation, so the
+  collector's passes during the loop only scan what the loop allocates. Process-wide.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import errno
+import gc
+import logging
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+_log = logging.getLogger(__name__)
+
+#: mlockall flags (Linux generic values; x86, arm, riscv).
+MCL_CURRENT = 1
+MCL_FUTURE = 2
+
+
+@dataclass
+class RealtimeReport:
+    """Which real-time measures are in effect, and one message per measure that is not."""
+
+    #: The calling thread runs under SCHED_FIFO at :attr:`priority`.
+    fifo: bool = False
+    #: All current and future pages of the process are locked in RAM.
+    memory_locked: bool = False
+    #: gc.freeze() moved the objects alive at the call into the permanent generation.
+    gc_frozen: bool = False
+    #: Requested SCHED_FIFO priority (1..99).
+    priority: int = 0
+    #: One line per requested measure not in effect: what and why.
+    messages: list[str] = field(default_factory=list)
+    #: Scheduling policy and priority of the thread before the call, for :func:`restore`.
+    previous_policy: int | None = None
+    previous_priority: int | None = None
+
+    @property
+    def all_in_effect(self) -> bool:
+        """True when every requested measure took effect."""
+        return not self.messages
+
+
+def apply_realtime(
+    priority: int = 80, lock_memory: bool = True, freeze_gc: bool = True
+) -> RealtimeReport:
+    """Make the calling thread real-time as far as allowed; see the module docstring.
+
+    ``priority`` is the SCHED_FIFO priority, 1 (lowest) to 99. Each measure that fails is
+    logged as a warning and left out; the report says what is in effect.
+    """
+    if not 1 <= priority <= 99:
+        raise ValueError(f"SCHED_FIFO priority must be 1..99, got {priority}")
+    report = RealtimeReport(priority=priority)
+    _set_fifo(report)
+    if lock_memory:
+        _lock_memory(report)
+    if freeze_gc:
+        gc.freeze()
+        report.gc_frozen = True
+    for message in report.messages:
+        _log.warning("%s", message)
+    return report
+
+
+def restore(report: RealtimeReport) -> None:
+    """Undo what ``report`` says took effect. Call from the thread that applied it."""
+    if report.fifo and report.previous_policy is not None:
+        param = os.sched_param(report.previous_priority or 0)
+        os.sched_setscheduler(0, report.previous_policy, param)
+        report.fifo = False
+    if report.memory_locked:
+        try:
+            _libc().munlockall()
+        except (OSError, AttributeError) as exc:
+            _log.warning("real-time restore: munlockall failed: %s", _reason(exc))
+        report.memory_locked = False
+    if report.gc_frozen:
+        gc.unfreeze()
+        report.gc_frozen = False
+
+
+def _set_fifo(report: RealtimeReport) -> None:
+    what = f"SCHED_FIFO priority {report.priority} not in effect"
+    if not hasattr(os, "sched_setscheduler") or not hasattr(os, "SCHED_FIFO"):
+        report.messages.append(f"real-time: {what}: not supported on this platform")
+        return
+    try:
+        report.previous_policy = os.sched_getscheduler(0)
+        report.previous_priority = os.sched_getparam(0).sched_priority
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(report.priority))
+    except OSError as exc:
+        hint = ""
+        if isinstance(exc, PermissionError):
+            hint = " (needs root, CAP_SYS_NICE or an rtprio limit, e.g. LimitRTPRIO=)"
+        report.messages.append(f"real-time: {what}: {_reason(exc)}{hint}")
+        return
+    report.fifo = True
+
+
+def _lock_memory(report: RealtimeReport) -> None:
+    what = "memory not locked (mlockall)"
+    try:
+        libc = _libc()
+        result = libc.mlockall(MCL_CURRENT | MCL_FUTURE)
+    except (OSError, AttributeError) as exc:
+        report.messages.append(f"real-time: {what}: libc unavailable: {_reason(exc)}")
+        return
+    if result != 0:
+        code = ctypes.get_errno()
+        hint = ""
+        if code in (errno.EPERM, errno.ENOMEM):
+            hint = " (needs CAP_IPC_LOCK or a larger RLIMIT_MEMLOCK, e.g. LimitMEMLOCK=infinity)"
+        report.messages.append(f"real-time: {what}: {os.strerror(code)}{hint}")
+        return
+    report.memory_locked = True
+
+
+def _libc() -> Any:
+    """The C library, loaded with errno capture. Raises OSError when it cannot be found."""
+    name = ctypes.util.find_library("c")
+    if name is None:
+        raise OSError("the C library was not found")
+    return ctypes.CDLL(name, use_errno=True)
+
+
+def _reason(exc: BaseException) -> str:
+    """A one-line reason for ``exc``: its strerror when it has one."""
+    text = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+    return " ".join(str(text).split())

@@ -1,0 +1,200 @@
+"""controller.realtime: fallbacks warn in one line and report; the real call in a subprocess.
+
+No test may leave the pytest process under SCHED_FIFO or with its memory locked: every
+successful path here is either faked or run in a child process.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import errno
+import gc
+import json
+import logging
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from controller import realtime
+from controller.realtime import RealtimeReport, apply_realtime, restore
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def _process_stays_normal():
+    policy = os.sched_getscheduler(0)
+    freeze = gc.get_freeze_count()
+    yield
+    assert os.sched_getscheduler(0) == policy, "a test left the process with another policy"
+    assert policy != os.SCHED_FIFO
+    assert gc.get_freeze_count() == freeze, "a test left gc frozen"
+
+
+def refuse(*_args):
+    raise PermissionError(errno.EPERM, "Operation not permitted")
+
+
+class FakeLibc:
+    """A libc whose mlockall fails with ``code`` (0: succeeds)."""
+
+    def __init__(self, code: int):
+        self.code = code
+        self.calls: list[str] = []
+
+    def mlockall(self, flags: int) -> int:
+        self.calls.append(f"mlockall({flags})")
+        if self.code:
+            ctypes.set_errno(self.code)
+            return -1
+        return 0
+
+    def munlockall(self) -> int:
+        self.calls.append("munlockall")
+        return 0
+
+
+def warnings_of(caplog: pytest.LogCaptureFixture) -> list[logging.LogRecord]:
+    return [r for r in caplog.records if r.name == "controller.realtime"]
+
+
+def assert_clean_one_line_warnings(records: list[logging.LogRecord], count: int) -> None:
+    assert len(records) == count
+    for record in records:
+        assert record.levelno == logging.WARNING
+        assert record.exc_info is None and record.exc_text is None
+        assert "\n" not in record.getMessage()
+        assert "not" in record.getMessage()
+
+
+def test_refused_scheduler_and_memory_lock_warn_and_report(monkeypatch, caplog):
+    libc = FakeLibc(errno.ENOMEM)
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    monkeypatch.setattr(realtime, "_libc", lambda: libc)
+    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    report = apply_realtime(priority=70)
+    try:
+        assert not report.fifo and not report.memory_locked and report.gc_frozen
+        assert report.priority == 70
+        assert not report.all_in_effect
+        assert len(report.messages) == 2
+        fifo, memory = report.messages
+        assert "SCHED_FIFO priority 70 not in effect" in fifo
+        assert "Operation not permitted" in fifo and "CAP_SYS_NICE" in fifo
+        assert "memory not locked" in memory and os.strerror(errno.ENOMEM) in memory
+        assert libc.calls == ["mlockall(3)"]
+        records = warnings_of(caplog)
+        assert_clean_one_line_warnings(records, 2)
+        assert [r.getMessage() for r in records] == report.messages
+    finally:
+        restore(report)
+    assert not report.gc_frozen
+    assert libc.calls == ["mlockall(3)"]  # nothing to unlock
+
+
+def test_missing_libc_and_scheduler_api_are_reported(monkeypatch, caplog):
+    def no_libc():
+        raise OSError("the C library was not found")
+
+    monkeypatch.delattr(os, "sched_setscheduler")
+    monkeypatch.setattr(realtime, "_libc", no_libc)
+    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    report = apply_realtime(freeze_gc=False)
+    assert not report.fifo and not report.memory_locked and not report.gc_frozen
+    assert "not supported on this platform" in report.messages[0]
+    assert "libc unavailable" in report.messages[1]
+    assert_clean_one_line_warnings(warnings_of(caplog), 2)
+    restore(report)
+
+
+def test_scheduler_os_error_other_than_permission(monkeypatch, caplog):
+    def invalid(*_args):
+        raise OSError(errno.EINVAL, "Invalid argument")
+
+    monkeypatch.setattr(os, "sched_setscheduler", invalid)
+    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    report = apply_realtime(lock_memory=False, freeze_gc=False)
+    assert report.messages == ["real-time: SCHED_FIFO priority 80 not in effect: Invalid argument"]
+    assert_clean_one_line_warnings(warnings_of(caplog), 1)
+
+
+def test_success_is_reported_and_restored(monkeypatch, caplog):
+    calls: list[tuple[int, int, int]] = []
+    libc = FakeLibc(0)
+    monkeypatch.setattr(
+        os, "sched_setscheduler", lambda pid, pol, p: calls.append((pid, pol, p.sched_priority))
+    )
+    monkeypatch.setattr(realtime, "_libc", lambda: libc)
+    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    previous = os.sched_getscheduler(0)
+    report = apply_realtime(priority=90)
+    assert report.fifo and report.memory_locked and report.gc_frozen and report.all_in_effect
+    assert report.previous_policy == previous
+    assert calls == [(0, os.SCHED_FIFO, 90)]
+    assert warnings_of(caplog) == []
+    restore(report)
+    assert calls[-1] == (0, previous, report.previous_priority)
+    assert libc.calls == ["mlockall(3)", "munlockall"]
+    assert not (report.fifo or report.memory_locked or report.gc_frozen)
+
+
+def test_nothing_requested_but_the_scheduler(monkeypatch):
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    monkeypatch.setattr(realtime, "_libc", lambda: pytest.fail("libc must not be loaded"))
+    report = apply_realtime(lock_memory=False, freeze_gc=False)
+    assert len(report.messages) == 1
+    assert not report.memory_locked and not report.gc_frozen
+
+
+@pytest.mark.parametrize("priority", [0, 100, -5])
+def test_priority_out_of_range(priority: int):
+    with pytest.raises(ValueError, match=r"1\.\.99"):
+        apply_realtime(priority=priority)
+
+
+@pytest.mark.parametrize("unprivileged", [False, True])
+def test_real_call_in_a_child_process(unprivileged: bool):
+    """The real system calls, whatever this machine allows, in a throwaway process.
+
+    ``unprivileged``: as root, the child first drops to user ``nobody`` so the real refusal
+    paths run too.
+    """
+    if unprivileged and os.geteuid() != 0:
+        pytest.skip("dropping privileges needs root")
+    code = (
+        "import json, os, gc\n"
+        "from controller.realtime import apply_realtime, restore\n"
+        # Drop after the imports: the interpreter's files need not be readable by nobody.
+        + ("os.setgid(65534); os.setuid(65534)\n" if unprivileged else "")
+        + "before = os.sched_getscheduler(0)\n"
+        "r = apply_realtime(priority=10)\n"
+        "during = os.sched_getscheduler(0)\n"
+        "frozen = gc.get_freeze_count()\n"
+        "flags = [r.fifo, r.memory_locked, r.gc_frozen]\n"
+        "restore(r)\n"
+        "print(json.dumps({'flags': flags, 'messages': r.messages, 'before': before,\n"
+        "  'during': during, 'after': os.sched_getscheduler(0), 'frozen': frozen,\n"
+        "  'unfrozen': gc.get_freeze_count(), 'fifo': os.SCHED_FIFO}))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60
+    )
+    assert out.returncode == 0, out.stderr
+    result = json.loads(out.stdout)
+    fifo, locked, frozen = result["flags"]
+    assert frozen and result["frozen"] > 0 and result["unfrozen"] == 0
+    assert (result["during"] == result["fifo"]) == fifo
+    assert result["after"] == result["before"]
+    # Every measure not in effect has its one-line message, and each was logged once.
+    assert len(result["messages"]) == (not fifo) + (not locked)
+    logged = [line for line in out.stderr.splitlines() if "real-time:" in line]
+    assert len(logged) == len(result["messages"])
+    assert "Traceback" not in out.stderr
+
+
+def test_report_defaults():
+    report = RealtimeReport()
+    assert report.all_in_effect and not report.fifo and report.messages == []
