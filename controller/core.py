@@ -1,0 +1,309 @@
+"""The motion core: one control cycle from measured state to joint commands.
+
+Every cycle (:meth:`MotionCore.cycle`)::
+
+    hardware.read → kinematics.update(measured q) → motion.advance → IK (QP) →
+    q_cmd += v·dt → grippers → hardware.write
+
+The controller runs on the *measured* state (Jacobians, task errors) while joint limits
+apply to the *commanded* positions it sends, so a command never leaves its limits. Commands
+from other threads (start, stop, pause, resume, abort, servo, grippers) take a lock that
+:meth:`MotionCore.cycle` also holds, so they land between cycles.
+
+Faults (hardware faults, a failed QP, a failed time law) drop the motion, hold position
+(zero velocity next cycle), switch the drives off and raise an alarm; ``clear_alarms`` then
+``servo_on`` recover once the cause is gone.
+"""
+
+from __future__ import annotations
+
+import enum
+import threading
+
+import numpy as np
+
+from controller.alarms import Alarm, AlarmCode, AlarmType
+from controller.enums import RightLeft
+from controller.kinematics import Kinematics
+from controller.motion.motions import IKSetup, Motion
+from controller.motion.paths import VectorPath
+from controller.motion.profile import PathProfile
+from controller.qp.ik import WholeBodyIK
+from controller.robot import Robot
+from hal.interface import HardwareInterface, HardwareState, JointCommand
+
+
+class CoreState(enum.Enum):
+    SERVO_OFF = "servo off"
+    READY = "ready"
+    BUSY = "busy"
+    PAUSED = "paused"
+    ALARM = "alarm"
+
+
+class CoreError(RuntimeError):
+    """A request that the core's state does not allow (the service maps it to a code)."""
+
+
+class GripperMotion:
+    """Straight joint-space move of one gripper's joints (not part of the QP)."""
+
+    def __init__(
+        self, dt: float, start: np.ndarray, goal: np.ndarray, speed: np.ndarray, accel: np.ndarray
+    ):
+        self.path = VectorPath(start, goal)
+        v, a = self.path.limits(speed, accel)
+        self.profile = PathProfile(dt, v, a) if not self.path.is_empty else None
+
+    def advance(self) -> np.ndarray:
+        if self.profile is None:
+            return self.path.end
+        self.profile.step()
+        return self.path.at(self.profile.s)
+
+    @property
+    def finished(self) -> bool:
+        return self.profile is None or self.profile.finished
+
+
+class MotionCore:
+    """Owns the kinematics, the IK and the current motion of one robot on one hardware."""
+
+    def __init__(
+        self, robot: Robot, hardware: HardwareInterface, dt: float, solver: str = "proxqp"
+    ):
+        self.robot = robot
+        self.hw = hardware
+        self.dt = dt
+        self.kin = Kinematics(robot)
+        self.ik = WholeBodyIK(self.kin, dt, solver)
+        names = list(hardware.joint_names)
+        missing = [n for n in self.kin.joint_names if n not in names]
+        if missing:
+            raise ValueError(f"hardware lacks joints {missing}")
+        #: Hardware index of each kinematic joint, and of each gripper joint.
+        self._hw_index = np.array([names.index(n) for n in self.kin.joint_names], dtype=int)
+        self._grippers = {
+            RightLeft[side]: np.array([names.index(n) for n in g.joints], dtype=int)
+            for side, g in robot.profile.grippers.items()
+            if all(n in names for n in g.joints)
+        }
+        self._lock = threading.RLock()
+        self.state = CoreState.SERVO_OFF
+        self.motion: Motion | None = None
+        self.alarms: list[Alarm] = []
+        self.q = np.zeros(self.kin.nv)  # measured
+        self.q_cmd = np.zeros(self.kin.nv)
+        self.v_cmd = np.zeros(self.kin.nv)
+        self._hw_cmd = np.zeros(len(names))
+        self._hw_vel = np.zeros(len(names))
+        self._gripper_motion: dict[RightLeft, GripperMotion] = {}
+        self.cycles = 0
+        self._hold()
+
+    # ------------------------------------------------------------------- requests
+    def _hold(self) -> None:
+        """No motion: every joint frozen (decelerates to rest, then stays)."""
+        self._apply(IKSetup([], np.ones(self.kin.nv, dtype=bool)))
+
+    def _apply(self, setup: IKSetup) -> None:
+        self.ik.tasks = setup.tasks
+        self.ik.box.frozen = setup.frozen
+        self.ik.rows.configure(self.kin, setup.allowed, setup.ranges, setup.frozen)
+
+    def servo_on(self) -> None:
+        """Enable the drives holding the measured position (from servo off, after alarms)."""
+        with self._lock:
+            if self.state == CoreState.ALARM:
+                raise CoreError("alarms are active: clear them first")
+            if self.state != CoreState.SERVO_OFF:
+                return
+            if self.hw.state == HardwareState.UNCONFIGURED:
+                self.hw.configure()
+            if self.hw.state == HardwareState.FAULT and not self.hw.reset_faults():
+                raise CoreError("the hardware is still in fault")
+            self.hw.activate()
+            self._sync_to_measured()
+            self.state = CoreState.READY
+
+    def servo_off(self) -> None:
+        with self._lock:
+            self.motion = None
+            self._gripper_motion.clear()
+            self.hw.deactivate()
+            if self.state != CoreState.ALARM:
+                self.state = CoreState.SERVO_OFF
+            self._hold()
+
+    def _sync_to_measured(self) -> None:
+        measured = self.hw.read().position
+        self._hw_cmd[:] = measured
+        self._hw_vel[:] = 0.0
+        self.q = measured[self._hw_index].copy()
+        self.q_cmd = self.q.copy()
+        self.v_cmd = np.zeros(self.kin.nv)
+        self.kin.update(self.q)
+        self._hold()
+
+    def update_measured(self) -> None:
+        """Read the hardware and update the kinematics (for queries while idle/servo off)."""
+        with self._lock:
+            self.q = self.hw.read().position[self._hw_index].copy()
+            self.kin.update(self.q)
+
+    def start(self, motion: Motion) -> None:
+        """Run ``motion`` (built against the current measured state). Only from READY."""
+        with self._lock:
+            if self.state != CoreState.READY:
+                raise CoreError(f"cannot start a motion while {self.state.value}")
+            self._apply(motion.setup())
+            self.motion = motion
+            self.state = CoreState.BUSY
+
+    def stop(self) -> None:
+        """Decelerate on the path, drop the rest (also from PAUSED)."""
+        with self._lock:
+            if self.motion is not None:
+                self.motion.stop()
+
+    def pause(self) -> None:
+        with self._lock:
+            if self.motion is not None and self.state == CoreState.BUSY:
+                self.motion.pause()
+            elif self.state == CoreState.READY:
+                self.state = CoreState.PAUSED
+
+    def resume(self) -> None:
+        with self._lock:
+            if self.state != CoreState.PAUSED and not (
+                self.motion is not None and self.state == CoreState.BUSY
+            ):
+                return
+            if self.motion is not None:
+                self.motion.resume()
+                self.state = CoreState.BUSY
+            else:
+                self.state = CoreState.READY
+
+    def abort(self) -> None:
+        """Hold now: zero velocity from the next cycle, motion dropped."""
+        with self._lock:
+            self.motion = None
+            self._gripper_motion.clear()
+            self.v_cmd[:] = 0.0
+            self._hw_vel[:] = 0.0
+            self._hold()
+            if self.state in (CoreState.BUSY, CoreState.PAUSED):
+                self.state = CoreState.READY
+
+    def move_gripper(self, side: RightLeft, ratio: float) -> None:
+        """Move a gripper to ``ratio`` (0 closed .. 1 open)."""
+        with self._lock:
+            if self.state not in (CoreState.READY, CoreState.BUSY, CoreState.PAUSED):
+                raise CoreError(f"cannot move a gripper while {self.state.value}")
+            idx = self._grippers[side]
+            g = self.robot.profile.grippers[side.name]  # type: ignore[index]
+            specs = [self.robot.joints[n] for n in g.joints]
+            goal = np.array(
+                [
+                    s.to_si(c + ratio * (o - c))
+                    for s, o, c in zip(specs, g.open, g.closed, strict=True)
+                ]
+            )
+            self._gripper_motion[side] = GripperMotion(
+                self.dt,
+                self._hw_cmd[idx].copy(),
+                goal,
+                np.array([s.velocity for s in specs]),
+                np.array([s.acceleration for s in specs]),
+            )
+
+    def gripper_ratio(self, side: RightLeft) -> float:
+        """Measured opening of a gripper, 0 (closed) .. 1 (open), from its first joint."""
+        idx = self._grippers[side]
+        g = self.robot.profile.grippers[side.name]  # type: ignore[index]
+        spec = self.robot.joints[g.joints[0]]
+        pos = self.hw.read().position[idx[0]]
+        lo, hi = spec.to_si(g.closed[0]), spec.to_si(g.open[0])
+        return float(np.clip((pos - lo) / (hi - lo), 0.0, 1.0))
+
+    def raise_alarm(self, code: AlarmCode, module: str, description: str) -> None:
+        """Record an alarm, stop everything and enter ALARM (callable from any thread)."""
+        with self._lock:
+            self.alarms.append(Alarm(int(code), AlarmType.FAULT, description, module))
+            self._enter_alarm()
+
+    def _enter_alarm(self) -> None:
+        self.motion = None
+        self._gripper_motion.clear()
+        self.v_cmd[:] = 0.0
+        self._hw_vel[:] = 0.0
+        self._hold()
+        self.hw.deactivate()
+        self.state = CoreState.ALARM
+
+    def clear_alarms(self) -> None:
+        """Forget the alarms; the drives stay off until ``servo_on``."""
+        with self._lock:
+            self.alarms.clear()
+            if self.state == CoreState.ALARM:
+                self.state = CoreState.SERVO_OFF
+
+    @property
+    def is_moving(self) -> bool:
+        return self.motion is not None or bool(self._gripper_motion)
+
+    # --------------------------------------------------------------------- cycle
+    def cycle(self) -> None:
+        """One control cycle. Never raises for motion problems: they become alarms."""
+        with self._lock:
+            self.cycles += 1
+            measured = self.hw.read()
+            self.q = measured.position[self._hw_index].copy()
+            self.kin.update(self.q)
+            faults = self.hw.faults()
+            if faults and self.state != CoreState.ALARM:
+                for f in faults:
+                    self.alarms.append(Alarm(f.code, AlarmType.FAULT, f.description, f.source))
+                self._enter_alarm()
+            if self.state not in (CoreState.READY, CoreState.BUSY, CoreState.PAUSED):
+                self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
+                return
+            if self.motion is not None:
+                try:
+                    self.motion.advance()
+                except RuntimeError as exc:
+                    self.raise_alarm(AlarmCode.TRAJECTORY_FAILURE, "motion", str(exc))
+                    self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
+                    return
+            result = self.ik.solve(self.q_cmd, self.v_cmd)
+            if not result.ok:
+                self.raise_alarm(AlarmCode.QP_FAILURE, "qp", result.message)
+                self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
+                return
+            self.v_cmd = result.velocity
+            self.q_cmd = self.q_cmd + self.v_cmd * self.dt
+            self._hw_cmd[self._hw_index] = self.q_cmd
+            self._hw_vel[self._hw_index] = self.v_cmd
+            for side, gm in list(self._gripper_motion.items()):
+                idx = self._grippers[side]
+                new = gm.advance()
+                self._hw_vel[idx] = (new - self._hw_cmd[idx]) / self.dt
+                self._hw_cmd[idx] = new
+                if gm.finished:
+                    self._hw_vel[idx] = 0.0
+                    del self._gripper_motion[side]
+            self.hw.write(JointCommand(self._hw_cmd, self._hw_vel))
+            self._finish_motion()
+
+    def _finish_motion(self) -> None:
+        motion = self.motion
+        if motion is None:
+            return
+        if motion.paused and self.state == CoreState.BUSY:
+            self.state = CoreState.PAUSED
+        if motion.finished:  # the time law ended at rest: hold there
+            self.motion = None
+            self._hold()
+            if self.state in (CoreState.BUSY, CoreState.PAUSED):
+                self.state = CoreState.READY

@@ -1,0 +1,1 @@
+"""Motion generation: geometric paths timed by one Ruckig-driven path parameter."""

@@ -1,0 +1,355 @@
+"""Motions: a path, its time law and the IK tasks that follow it.
+
+A motion says, when it starts, which joints the IK may move (``frozen``), which redundant
+axes Cartesian tracking may use (``allowed``) and within which ranges, and which tasks to
+solve; every cycle :meth:`Motion.advance` steps the time law and moves the task targets.
+All values are SI and poses are in the original frame.
+
+===================  =====================================================================
+motion               use
+===================  =====================================================================
+JointMotion          joint-space PTP of some joints (unit moves, PTP to an IK solution)
+CartesianMotion      control point along a line or arc; other arm held or frozen
+CPHoldMotion         redundant axes move, control point(s) held in the original frame
+VehicleMotion        vehicle unit move (omnidirectional: straight; differential: turn,
+                     drive, turn)
+===================  =====================================================================
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from controller.enums import RightLeft, UnitType
+from controller.kinematics import Kinematics
+from controller.motion.paths import ArcPath, LinePath, VectorPath
+from controller.motion.profile import PathProfile, ProfileState
+from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
+from controller.redundant_axes import RedundantAxis, axis_value, elbow_axis
+
+Range = tuple[float, float]
+
+
+@dataclass
+class IKSetup:
+    """What a motion asks of the IK while it runs."""
+
+    tasks: list[Task]
+    #: Joints the IK must not move (True = frozen), indexed like ``q``.
+    frozen: np.ndarray
+    #: Redundant axes Cartesian tracking may use (False: held at their start value).
+    allowed: dict[RedundantAxis, bool] = field(default_factory=dict)
+    #: RedundantLimit ranges (SI); missing = unlimited.
+    ranges: dict[RedundantAxis, Range | None] = field(default_factory=dict)
+
+
+def other_side(side: RightLeft) -> RightLeft:
+    return RightLeft.LEFT if side == RightLeft.RIGHT else RightLeft.RIGHT
+
+
+def arm_joints(kin: Kinematics, side: RightLeft) -> np.ndarray:
+    return kin.unit_indices(UnitType[f"{side.name}_ARM"])
+
+
+class Motion(abc.ABC):
+    """A motion in progress."""
+
+    profile: PathProfile
+
+    @abc.abstractmethod
+    def setup(self) -> IKSetup:
+        """Tasks and constraints, built once when the motion starts."""
+
+    @abc.abstractmethod
+    def apply(self, s: float, sd: float) -> None:
+        """Move the task targets to path parameter ``s`` with rate ``sd`` [1/s]."""
+
+    def advance(self) -> None:
+        """One cycle: step the time law, move the targets."""
+        self.profile.step()
+        self.apply(self.profile.s, self.profile.sd)
+
+    @property
+    def finished(self) -> bool:
+        return self.profile.finished
+
+    @property
+    def paused(self) -> bool:
+        return self.profile.state == ProfileState.PAUSED
+
+    def stop(self) -> None:
+        self.profile.stop()
+
+    def pause(self) -> None:
+        self.profile.pause()
+
+    def resume(self) -> None:
+        self.profile.resume()
+
+
+def _posture(kin: Kinematics) -> PostureTask:
+    """Regularisation toward the posture at the start of the motion."""
+    return PostureTask(kin.q.copy(), np.arange(kin.nv))
+
+
+class JointMotion(Motion):
+    """Joint-space straight line for ``joints`` (indices in q) to ``target`` (same order).
+
+    ``speed``/``accel`` per joint [rad/s, m/s, …]; ``duration`` [s] forces the time (Spec A
+    ``time``). ``hold`` arms keep their control points fixed (their joints join the IK).
+    """
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        dt: float,
+        joints: np.ndarray,
+        target: np.ndarray,
+        speed: np.ndarray,
+        accel: np.ndarray,
+        duration: float | None = None,
+        hold: tuple[RightLeft, ...] = (),
+    ):
+        self.kin = kin
+        self.joints = np.asarray(joints, dtype=int)
+        self.path = VectorPath(kin.q[self.joints], target)
+        v, a = self.path.limits(speed, accel)
+        if self.path.is_empty:
+            v, a = 1.0, 1.0
+        self.profile = PathProfile(dt, v, a, duration)
+        self.track = PostureTask(kin.q.copy(), self.joints, gain=20.0, weight=1.0, level=1)
+        self.hold = [ControlPointTask(side, kin.pose(side)) for side in hold]
+
+    def setup(self) -> IKSetup:
+        frozen = np.ones(self.kin.nv, dtype=bool)
+        frozen[self.joints] = False
+        for task in self.hold:
+            frozen[arm_joints(self.kin, task.side)] = False
+        return IKSetup([self.track, *self.hold, _posture(self.kin)], frozen)
+
+    def apply(self, s: float, sd: float) -> None:
+        self.track.reference[self.joints] = self.path.at(s)
+        self.track.rate = self.path.rate(s, sd)
+
+
+class CartesianMotion(Motion):
+    """Control point of ``side`` along ``path`` (a LinePath or ArcPath in the original frame).
+
+    ``speed``/``accel``: (translation, rotation) limits [m/s, rad/s] / [m/s², rad/s²].
+    ``allowed``: redundant axes tracking may use (others held); ``hold_other``: keep the other
+    arm's control point fixed (else its joints are frozen). ``elbow``: target elbow angle
+    [rad] reached along the path (JARA CarPosWithElbow), or None.
+    """
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        dt: float,
+        side: RightLeft,
+        path: LinePath | ArcPath,
+        speed: tuple[float, float],
+        accel: tuple[float, float],
+        allowed: dict[RedundantAxis, bool],
+        ranges: dict[RedundantAxis, Range | None] | None = None,
+        hold_other: bool = False,
+        elbow: float | None = None,
+        duration: float | None = None,
+    ):
+        self.kin = kin
+        self.side = side
+        self.path = path
+        v, a = path.limits(speed, accel)
+        if not math.isfinite(v):  # zero-length path
+            v, a = 1.0, 1.0
+        self.profile = PathProfile(dt, v, a, duration)
+        self.task = ControlPointTask(side, path.at(0.0))
+        self.allowed = dict(allowed)
+        self.ranges = dict(ranges or {})
+        other = other_side(side)
+        self.hold = (
+            ControlPointTask(other, kin.pose(other)) if hold_other and other in kin.arms else None
+        )
+        self.elbow: AxisTask | None = None
+        self._elbow_path: VectorPath | None = None
+        if elbow is not None and kin.has_elbow(side):
+            axis = elbow_axis(side)
+            start = axis_value(kin, axis)
+            goal = start + math.remainder(elbow - start, math.tau)
+            self._elbow_path = VectorPath(np.array([start]), np.array([goal]))
+            self.elbow = AxisTask(axis, start)
+            self.allowed[axis] = True
+
+    def setup(self) -> IKSetup:
+        kin = self.kin
+        frozen = np.zeros(kin.nv, dtype=bool)
+        other = other_side(self.side)
+        if self.hold is None and other in kin.arms:
+            frozen[arm_joints(kin, other)] = True
+        lumbar = [a for a in RedundantAxis if a.is_lumbar and a.lumbar in kin.lumbar_axes()]
+        if lumbar and not any(self.allowed.get(a, False) for a in lumbar):
+            frozen[kin.unit_indices(UnitType.LUMBER)] = True
+        vehicle = [RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y, RedundantAxis.VEHICLE_THETA]
+        if kin.has_vehicle and not any(self.allowed.get(a, False) for a in vehicle):
+            frozen[kin.unit_indices(UnitType.VEHICLE)] = True
+        tasks: list[Task] = [self.task]
+        if self.hold is not None:
+            tasks.append(self.hold)
+        if self.elbow is not None:
+            tasks.append(self.elbow)
+        tasks.append(_posture(kin))
+        allowed = {a: self.allowed.get(a, False) for a in RedundantAxis}
+        return IKSetup(tasks, frozen, allowed, self.ranges)
+
+    def apply(self, s: float, sd: float) -> None:
+        self.task.set_target(self.path.at(s), self.path.twist(s, sd))
+        if self.elbow is not None and self._elbow_path is not None:
+            self.elbow.set_target(
+                float(self._elbow_path.at(s)[0]), float(self._elbow_path.rate(s, sd)[0])
+            )
+
+
+class CPHoldMotion(Motion):
+    """Redundant axes to ``targets`` (SI) with the control points of ``held`` fixed.
+
+    ``speed``/``accel`` per axis in ``targets`` order. All redundant axes may move; the
+    joints of arms neither held nor carrying a moved elbow are frozen.
+    """
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        dt: float,
+        held: tuple[RightLeft, ...],
+        targets: dict[RedundantAxis, float],
+        speed: np.ndarray,
+        accel: np.ndarray,
+    ):
+        self.kin = kin
+        self.axes = list(targets)
+        start = np.array([axis_value(kin, a) for a in self.axes])
+        goal = np.array(
+            [
+                start[i] + math.remainder(targets[a] - start[i], math.tau)
+                if a.is_elbow
+                else targets[a]
+                for i, a in enumerate(self.axes)
+            ]
+        )
+        self.path = VectorPath(start, goal)
+        v, a = self.path.limits(speed, accel)
+        if self.path.is_empty:
+            v, a = 1.0, 1.0
+        self.profile = PathProfile(dt, v, a)
+        self.hold = [ControlPointTask(side, kin.pose(side)) for side in held]
+        self.tasks = [AxisTask(axis, float(start[i])) for i, axis in enumerate(self.axes)]
+
+    def setup(self) -> IKSetup:
+        kin = self.kin
+        frozen = np.zeros(kin.nv, dtype=bool)
+        moving = {t.side for t in self.hold} | {a.side for a in self.axes if a.is_elbow}
+        for side in kin.arms:
+            if side not in moving:
+                frozen[arm_joints(kin, side)] = True
+        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen)
+
+    def apply(self, s: float, sd: float) -> None:
+        values = self.path.at(s)
+        rates = self.path.rate(s, sd)
+        for i, task in enumerate(self.tasks):
+            task.set_target(float(values[i]), float(rates[i]))
+
+
+class VehicleMotion(Motion):
+    """Vehicle unit move to ``target`` = (x [m], y [m], θ [rad]) in the original frame.
+
+    Omnidirectional: one straight line in (x, y) with θ turning along, limited by the
+    Euclidean translation speed/accel and the rotation speed/accel. Differential drive: turn
+    toward the goal, drive straight, turn to the final heading (each a straight segment of
+    its own, so the base never moves sideways).
+    """
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        dt: float,
+        target: np.ndarray,
+        speed: tuple[float, float],
+        accel: tuple[float, float],
+    ):
+        self.kin = kin
+        self.dt = dt
+        self.speed, self.accel = speed, accel
+        start = kin.vehicle_pose()
+        differential = kin.robot.profile.vehicle is not None and (
+            kin.robot.profile.vehicle.type == "differential"
+        )
+        self.waypoints = [start]
+        goal = np.asarray(target, dtype=float)
+        dxy = goal[:2] - start[:2]
+        if differential and float(np.linalg.norm(dxy)) > 1e-6:
+            heading = math.atan2(dxy[1], dxy[0])
+            heading = start[2] + math.remainder(heading - start[2], math.tau)
+            # Drive backwards when the goal is behind: less turning.
+            if abs(heading - start[2]) > math.pi / 2:
+                heading -= math.copysign(math.pi, heading - start[2])
+            self.waypoints.append(np.array([start[0], start[1], heading]))
+            self.waypoints.append(np.array([goal[0], goal[1], heading]))
+        self.waypoints.append(goal)
+        self._segment = 0
+        self.tasks = [
+            AxisTask(a, float(start[i]), weight=1.0, level=1)
+            for i, a in enumerate(
+                (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y, RedundantAxis.VEHICLE_THETA)
+            )
+        ]
+        self._start_segment()
+
+    def _start_segment(self) -> None:
+        a, b = self.waypoints[self._segment], self.waypoints[self._segment + 1]
+        self.path = VectorPath(a, b)
+        lin = float(np.linalg.norm(b[:2] - a[:2]))
+        rot = abs(float(b[2] - a[2]))
+        v = min(
+            self.speed[0] / lin if lin > 1e-12 else math.inf,
+            self.speed[1] / rot if rot > 1e-12 else math.inf,
+        )
+        acc = min(
+            self.accel[0] / lin if lin > 1e-12 else math.inf,
+            self.accel[1] / rot if rot > 1e-12 else math.inf,
+        )
+        if not math.isfinite(v):
+            v, acc = 1.0, 1.0
+        self.profile = PathProfile(self.dt, v, acc)
+
+    def setup(self) -> IKSetup:
+        frozen = np.ones(self.kin.nv, dtype=bool)
+        frozen[self.kin.unit_indices(UnitType.VEHICLE)] = False
+        return IKSetup([*self.tasks, _posture(self.kin)], frozen)
+
+    def apply(self, s: float, sd: float) -> None:
+        values = self.path.at(s)
+        rates = self.path.rate(s, sd)
+        for i, task in enumerate(self.tasks):
+            task.set_target(float(values[i]), float(rates[i]))
+
+    def advance(self) -> None:
+        super().advance()
+        last = len(self.waypoints) - 2
+        if self.profile.finished and self._segment < last and self.profile.s >= 1.0:
+            self._segment += 1
+            self._start_segment()
+
+    @property
+    def finished(self) -> bool:
+        return self.profile.finished and (
+            self._segment == len(self.waypoints) - 2 or self.profile.s < 1.0
+        )
+
+
+def line_motion_path(start: pin.SE3, end: pin.SE3) -> LinePath:
+    return LinePath(start, end)

@@ -1,0 +1,183 @@
+"""Geometric paths parameterised by s ∈ [0, 1], with their derivative d/ds.
+
+* :class:`VectorPath`: a straight line between two vectors (joint PTP, unit moves, redundant
+  axes of CP-hold moves, vehicle x/y/θ).
+* :class:`LinePath`: a straight Cartesian line; position linear, orientation along the
+  geodesic (constant angular velocity axis), both proportional to s so translation and
+  rotation start and stop together.
+* :class:`ArcPath`: a circular arc through a via point; orientation along the geodesic from
+  start to via, then from via to end, switching where the arc passes the via point.
+
+``limits(...)`` turns axis speed/acceleration limits into limits on ṡ and s̈ (Euclidean for
+translation and rotation, per axis for vectors).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+#: Extents below this count as "no motion" on that component.
+TINY = 1e-12
+
+
+def _clamp(s: float) -> float:
+    return 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
+
+
+def _ratio(limit: float, extent: float) -> float:
+    return math.inf if extent < TINY else limit / extent
+
+
+class VectorPath:
+    """``x(s) = x0 + s·(x1 − x0)``."""
+
+    def __init__(self, start: np.ndarray, end: np.ndarray):
+        self.start = np.asarray(start, dtype=float)
+        self.end = np.asarray(end, dtype=float)
+        self.delta = self.end - self.start
+
+    def at(self, s: float) -> np.ndarray:
+        return self.start + _clamp(s) * self.delta
+
+    def rate(self, s: float, sd: float) -> np.ndarray:
+        """d/dt x for ṡ = ``sd``."""
+        return self.delta * sd
+
+    def limits(self, speed: np.ndarray, accel: np.ndarray) -> tuple[float, float]:
+        """(ṡ_max, s̈_max) from per-axis speed and acceleration limits."""
+        extent = np.abs(self.delta)
+        v = min((_ratio(float(a), float(e)) for a, e in zip(speed, extent, strict=True)))
+        a = min((_ratio(float(b), float(e)) for b, e in zip(accel, extent, strict=True)))
+        return v, a
+
+    @property
+    def is_empty(self) -> bool:
+        return bool(np.abs(self.delta).max(initial=0.0) < TINY)
+
+
+class LinePath:
+    """Straight line from pose ``start`` to pose ``end`` (same frame, SI)."""
+
+    def __init__(self, start: pin.SE3, end: pin.SE3):
+        self.start = start.copy()
+        self.end = end.copy()
+        self.dp = end.translation - start.translation
+        self.omega = pin.log3(start.rotation.T @ end.rotation)  # in the start frame
+        self.omega_world = start.rotation @ self.omega
+
+    @property
+    def length(self) -> float:
+        """Translation [m]."""
+        return float(np.linalg.norm(self.dp))
+
+    @property
+    def angle(self) -> float:
+        """Rotation [rad]."""
+        return float(np.linalg.norm(self.omega))
+
+    def at(self, s: float) -> pin.SE3:
+        s = _clamp(s)
+        rot = self.start.rotation @ pin.exp3(s * self.omega)
+        return pin.SE3(rot, self.start.translation + s * self.dp)
+
+    def twist(self, s: float, sd: float) -> np.ndarray:
+        """Linear [m/s] and angular [rad/s] velocity (frame axes) for ṡ = ``sd``."""
+        out = np.empty(6)
+        out[:3] = self.dp * sd
+        out[3:] = self.omega_world * sd
+        return out
+
+    def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
+        """(ṡ_max, s̈_max) from (translation, rotation) speed and acceleration limits."""
+        v = min(_ratio(speed[0], self.length), _ratio(speed[1], self.angle))
+        a = min(_ratio(accel[0], self.length), _ratio(accel[1], self.angle))
+        return v, a
+
+    def samples(self, step: float = 0.01, angle_step: float = math.radians(2)) -> list[float]:
+        """Values of s at most ``step`` [m] / ``angle_step`` [rad] apart (ends included)."""
+        n = max(2, math.ceil(max(self.length / step, self.angle / angle_step)) + 1)
+        return [i / (n - 1) for i in range(n)]
+
+
+class ArcPath:
+    """Circular arc from ``start`` through the position of ``via`` to ``end``.
+
+    Orientation: geodesic from start to via orientation up to the via point, then to the end
+    orientation. The three positions must not be collinear (checked).
+    """
+
+    def __init__(self, start: pin.SE3, via: pin.SE3, end: pin.SE3):
+        p0, p1, p2 = start.translation, via.translation, end.translation
+        a, b = p1 - p0, p2 - p0
+        normal = np.cross(a, b)
+        nn = float(np.linalg.norm(normal))
+        if nn < 1e-9 * max(1.0, float(np.linalg.norm(a) * np.linalg.norm(b))):
+            raise ValueError("start, via and end points are collinear: no unique arc")
+        # Circumcentre of the triangle p0, p1, p2.
+        centre = p0 + (np.dot(a, a) * np.cross(b, normal) + np.dot(b, b) * np.cross(normal, a)) / (
+            2.0 * nn * nn
+        )
+        self.centre = centre
+        self.normal = normal / nn
+        self.radius = float(np.linalg.norm(p0 - centre))
+        self._e1 = (p0 - centre) / self.radius
+        self._e2 = np.cross(self.normal, self._e1)
+        self.sweep = self._angle_of(p2)
+        self.s_via = self._angle_of(p1) / self.sweep
+        self._first = LinePath(start, via)
+        self._second = LinePath(via, end)
+        self.start, self.end = start.copy(), end.copy()
+
+    def _angle_of(self, p: np.ndarray) -> float:
+        d = p - self.centre
+        ang = math.atan2(float(d @ self._e2), float(d @ self._e1))
+        return ang if ang > 0 else ang + 2 * math.pi
+
+    @property
+    def length(self) -> float:
+        return self.radius * self.sweep
+
+    @property
+    def angle(self) -> float:
+        return self._first.angle + self._second.angle
+
+    def _piece(self, s: float) -> tuple[LinePath, float, float]:
+        """Orientation segment, its local parameter and d(local)/ds."""
+        if s <= self.s_via:
+            return self._first, s / self.s_via, 1.0 / self.s_via
+        span = 1.0 - self.s_via
+        return self._second, (s - self.s_via) / span, 1.0 / span
+
+    def at(self, s: float) -> pin.SE3:
+        s = _clamp(s)
+        phi = s * self.sweep
+        pos = self.centre + self.radius * (math.cos(phi) * self._e1 + math.sin(phi) * self._e2)
+        seg, local, _ = self._piece(s)
+        return pin.SE3(seg.at(local).rotation, pos)
+
+    def twist(self, s: float, sd: float) -> np.ndarray:
+        s = _clamp(s)
+        phi = s * self.sweep
+        out = np.empty(6)
+        tangent = -math.sin(phi) * self._e1 + math.cos(phi) * self._e2
+        out[:3] = self.radius * self.sweep * sd * tangent
+        seg, _, dlocal = self._piece(s)
+        out[3:] = seg.omega_world * dlocal * sd
+        return out
+
+    def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
+        """(ṡ_max, s̈_max); rotation is limited on the faster of the two orientation pieces,
+        and the centripetal acceleration v²/r is kept within the translation limit."""
+        rot_rate = max(self._first.angle / self.s_via, self._second.angle / (1.0 - self.s_via))
+        v = min(_ratio(speed[0], self.length), _ratio(speed[1], rot_rate))
+        # Centripetal: (ṡ·L)²/r ≤ a_t  ->  ṡ ≤ √(a_t·r)/L.
+        v = min(v, _ratio(math.sqrt(accel[0] * self.radius), self.length))
+        a = min(_ratio(accel[0], self.length), _ratio(accel[1], rot_rate))
+        return v, a
+
+    def samples(self, step: float = 0.01, angle_step: float = math.radians(2)) -> list[float]:
+        n = max(3, math.ceil(max(self.length / step, self.angle / angle_step)) + 1)
+        return [i / (n - 1) for i in range(n)]
