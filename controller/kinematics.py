@@ -131,6 +131,13 @@ class Kinematics:
         self._original_theta = self._vehicle_theta_joint()
         self._set_original(self.body_pose().copy())
 
+    def copy_frames_from(self, other: Kinematics) -> None:
+        """Take ``other``'s control-point offsets and original frame (a planning copy)."""
+        for side in self.arms:
+            self.set_control_point_offset(side, other.control_point_offset(side))
+        self._original_theta = other._original_theta
+        self._set_original(other.original_frame.copy())
+
     def _set_original(self, pose: pin.SE3) -> None:
         self._original = pose
         rot6 = np.zeros((6, 6))

@@ -1,0 +1,130 @@
+"""Reachability check before a Cartesian motion is accepted.
+
+The path is sampled (every 1 cm and 2°) and followed with a position-level IK from the
+current configuration, under the same constraints the motion will run with: joint position
+limits, frozen joints (units that do not take part), masked redundant axes held, RedundantLimit
+ranges. A sample whose pose cannot be reached within tolerance makes the whole motion
+unreachable, with a reason the service returns as the comment of CANNOT_REACH_TARGET_ERR.
+
+Runs on its own :class:`~controller.kinematics.Kinematics` (the loop owns the live one).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from controller.enums import RightLeft
+from controller.kinematics import Kinematics
+from controller.motion.motions import IKSetup
+from controller.motion.paths import ArcPath, LinePath
+from controller.qp.limits import AxisRows
+from controller.qp.solver import ProxQPSolver
+from controller.redundant_axes import available_axes
+
+#: Accepted residual at every sample: position [m], orientation [rad].
+POSITION_TOL = 1e-4
+ANGLE_TOL = math.radians(0.05)
+#: Largest joint step per iteration [rad or m] and iterations per sample.
+MAX_STEP = 0.2
+MAX_ITER = 60
+#: Samples at most this far apart along the path.
+SAMPLE_STEP = 0.01
+SAMPLE_ANGLE = math.radians(2)
+DAMPING = 1e-6
+
+
+class ReachabilityChecker:
+    """Follows candidate paths with a position-level IK on a planning copy of the robot."""
+
+    def __init__(self, kin: Kinematics):
+        self.kin = Kinematics(kin.robot)
+        self.axes = available_axes(self.kin)
+        self.rows = AxisRows(self.kin, self.axes, 1.0)
+        self.solver = ProxQPSolver(self.kin.nv, self.rows.m)
+        specs = [self.kin.robot.joints[n] for n in self.kin.joint_names]
+        self.q_min = np.array([s.lower for s in specs])
+        self.q_max = np.array([s.upper for s in specs])
+
+    def check(
+        self,
+        live: Kinematics,
+        side: RightLeft,
+        path: LinePath | ArcPath,
+        setup: IKSetup,
+        hold: RightLeft | None = None,
+    ) -> str | None:
+        """None when every sample of ``path`` is reachable from ``live.q``; else why not."""
+        kin = self.kin
+        kin.copy_frames_from(live)
+        q = live.q.copy()
+        kin.update(q)
+        self.rows.configure(kin, setup.allowed, setup.ranges, setup.frozen)
+        held = kin.pose(hold) if hold is not None else None
+        samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
+        for s in samples[1:]:
+            target = path.at(s)
+            q, err = self._solve(q, side, target, setup.frozen, hold, held)
+            if err is not None:
+                where = "the target" if s >= 1.0 else f"the path at {100 * s:.0f} %"
+                return f"{where} is not reachable: {err}"
+        return None
+
+    def _solve(
+        self,
+        q: np.ndarray,
+        side: RightLeft,
+        target: pin.SE3,
+        frozen: np.ndarray,
+        hold: RightLeft | None,
+        held: pin.SE3 | None,
+    ) -> tuple[np.ndarray, str | None]:
+        kin = self.kin
+        for _ in range(MAX_ITER):
+            kin.update(q)
+            jacs = [kin.jacobian(side)]
+            errs = [self._error(kin.pose(side), target)]
+            if hold is not None and held is not None:
+                jacs.append(kin.jacobian(hold))
+                errs.append(self._error(kin.pose(hold), held))
+            err = np.concatenate(errs)
+            pos = max(float(np.linalg.norm(e[:3])) for e in errs)
+            ang = max(float(np.linalg.norm(e[3:])) for e in errs)
+            if pos < POSITION_TOL and ang < ANGLE_TOL:
+                return q, None
+            jac = np.vstack(jacs)
+            H = jac.T @ jac + DAMPING * np.eye(kin.nv)
+            g = -jac.T @ err
+            lb = np.maximum(self.q_min - q, -MAX_STEP)
+            ub = np.minimum(self.q_max - q, MAX_STEP)
+            lb[frozen] = ub[frozen] = 0.0
+            lb, ub = np.minimum(lb, 0.0), np.maximum(ub, 0.0)  # outside a limit: not worse
+            C, lo, hi = self.rows.rows(kin)
+            dq = self.solver.solve(H, g, C, lo, hi, lb, ub)
+            if dq is None:
+                why = self._describe(q, pos, ang, frozen)
+                return q, f"{why} (no step keeps the limits and the held axes)"
+            if float(np.abs(dq).max()) < 1e-9:
+                break  # stuck
+            q = q + np.clip(dq, lb, ub)
+        return q, self._describe(q, pos, ang, frozen)
+
+    @staticmethod
+    def _error(pose: pin.SE3, target: pin.SE3) -> np.ndarray:
+        out = np.empty(6)
+        out[:3] = target.translation - pose.translation
+        out[3:] = pin.log3(target.rotation @ pose.rotation.T)
+        return out
+
+    def _describe(self, q: np.ndarray, pos: float, ang: float, frozen: np.ndarray) -> str:
+        at_limit = [
+            name
+            for i, name in enumerate(self.kin.joint_names)
+            if not frozen[i] and (q[i] - self.q_min[i] < 1e-4 or self.q_max[i] - q[i] < 1e-4)
+        ]
+        text = f"closest pose is {pos * 1e3:.1f} mm and {math.degrees(ang):.2f} deg away"
+        if at_limit:
+            text += f"; joints at their limits: {', '.join(at_limit)}"
+        return text
