@@ -32,6 +32,11 @@ from controller.qp.ik import WholeBodyIK
 from controller.robot import Robot
 from hal.interface import HardwareInterface, HardwareState, JointCommand
 
+#: A finished motion counts as arrived when every commanded speed is below this [rad/s, m/s].
+SETTLED_SPEED = 1e-5
+#: ... or this long [s] after its time law ended, whichever comes first.
+SETTLE_TIME = 0.5
+
 
 class CoreState(enum.Enum):
     SERVO_OFF = "servo off"
@@ -99,6 +104,7 @@ class MotionCore:
         self._hw_vel = np.zeros(len(names))
         self._gripper_motion: dict[RightLeft, GripperMotion] = {}
         self.cycles = 0
+        self._settling = 0
         self._hold()
 
     # ------------------------------------------------------------------- requests
@@ -297,12 +303,19 @@ class MotionCore:
             self._finish_motion()
 
     def _finish_motion(self) -> None:
+        """A motion ends once its time law has ended *and* the robot has settled on the final
+        targets (commanded speeds below SETTLED_SPEED), or SETTLE_TIME after the time law."""
         motion = self.motion
         if motion is None:
             return
         if motion.paused and self.state == CoreState.BUSY:
             self.state = CoreState.PAUSED
-        if motion.finished:  # the time law ended at rest: hold there
+        if not motion.finished:
+            self._settling = 0
+            return
+        self._settling += 1
+        settled = float(np.abs(self.v_cmd).max(initial=0.0)) < SETTLED_SPEED
+        if settled or self._settling * self.dt >= SETTLE_TIME:
             self.motion = None
             self._hold()
             if self.state in (CoreState.BUSY, CoreState.PAUSED):

@@ -73,6 +73,12 @@ class IdealBackend(HardwareInterface):
     def faults(self) -> list[HardwareFault]:
         return list(self._faults)
 
+    def place(self, positions: dict[str, float]) -> None:
+        """Put joints at ``positions`` (SI) at rest, as if moved there by hand (tests)."""
+        for name, value in positions.items():
+            self._position[self.joint_names.index(name)] = value
+        self._velocity[:] = 0.0
+
     def inject_fault(self, fault: HardwareFault) -> None:
         """Enter FAULT with ``fault`` (tests)."""
         self._faults.append(fault)

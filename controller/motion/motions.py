@@ -5,6 +5,12 @@ axes Cartesian tracking may use (``allowed``) and within which ranges, and which
 solve; every cycle :meth:`Motion.advance` steps the time law and moves the task targets.
 All values are SI and poses are in the original frame.
 
+Discrete-time tracking: each cycle the tasks get the path point *for the current
+measurement* (s_k) as target and the *average* velocity to the next point,
+(x(s_{k+1}) − x(s_k))/dt, as feed-forward. With perfect drives the error then decays as
+(1 − gain·dt)^k with no steady lag; an instantaneous rate, or the next point as target,
+would leave a lag proportional to the speed or the acceleration.
+
 ===================  =====================================================================
 motion               use
 ===================  =====================================================================
@@ -66,13 +72,14 @@ class Motion(abc.ABC):
         """Tasks and constraints, built once when the motion starts."""
 
     @abc.abstractmethod
-    def apply(self, s: float, sd: float) -> None:
-        """Move the task targets to path parameter ``s`` with rate ``sd`` [1/s]."""
+    def apply(self, s0: float, s1: float, dt: float) -> None:
+        """Targets at path parameter ``s0`` (now), feed-forward toward ``s1`` (in ``dt``)."""
 
     def advance(self) -> None:
         """One cycle: step the time law, move the targets."""
+        s0 = self.profile.s
         self.profile.step()
-        self.apply(self.profile.s, self.profile.sd)
+        self.apply(s0, self.profile.s, self.profile.dt)
 
     @property
     def finished(self) -> bool:
@@ -90,6 +97,22 @@ class Motion(abc.ABC):
 
     def resume(self) -> None:
         self.profile.resume()
+
+
+def average_twist(a: pin.SE3, b: pin.SE3, dt: float) -> np.ndarray:
+    """Constant twist taking pose ``a`` to ``b`` in ``dt`` [s]: linear then angular, in the
+    frame's axes [m/s, rad/s]."""
+    out = np.empty(6)
+    out[:3] = (b.translation - a.translation) / dt
+    out[3:] = pin.log3(b.rotation @ a.rotation.T) / dt
+    return out
+
+
+def follow_vector(tasks: list[AxisTask], path: VectorPath, s0: float, s1: float, dt: float):
+    """Axis tasks on ``path``: target at ``s0``, average rate toward ``s1``."""
+    now, nxt = path.at(s0), path.at(s1)
+    for i, task in enumerate(tasks):
+        task.set_target(float(now[i]), float(nxt[i] - now[i]) / dt)
 
 
 def _posture(kin: Kinematics) -> PostureTask:
@@ -132,9 +155,10 @@ class JointMotion(Motion):
             frozen[arm_joints(self.kin, task.side)] = False
         return IKSetup([self.track, *self.hold, _posture(self.kin)], frozen)
 
-    def apply(self, s: float, sd: float) -> None:
-        self.track.reference[self.joints] = self.path.at(s)
-        self.track.rate = self.path.rate(s, sd)
+    def apply(self, s0: float, s1: float, dt: float) -> None:
+        now = self.path.at(s0)
+        self.track.reference[self.joints] = now
+        self.track.rate = (self.path.at(s1) - now) / dt
 
 
 class CartesianMotion(Motion):
@@ -205,12 +229,12 @@ class CartesianMotion(Motion):
         allowed = {a: self.allowed.get(a, False) for a in RedundantAxis}
         return IKSetup(tasks, frozen, allowed, self.ranges)
 
-    def apply(self, s: float, sd: float) -> None:
-        self.task.set_target(self.path.at(s), self.path.twist(s, sd))
+    def apply(self, s0: float, s1: float, dt: float) -> None:
+        now = self.path.at(s0)
+        self.task.set_target(now, average_twist(now, self.path.at(s1), dt))
         if self.elbow is not None and self._elbow_path is not None:
-            self.elbow.set_target(
-                float(self._elbow_path.at(s)[0]), float(self._elbow_path.rate(s, sd)[0])
-            )
+            e0, e1 = float(self._elbow_path.at(s0)[0]), float(self._elbow_path.at(s1)[0])
+            self.elbow.set_target(e0, (e1 - e0) / dt)
 
 
 class CPHoldMotion(Motion):
@@ -257,11 +281,8 @@ class CPHoldMotion(Motion):
                 frozen[arm_joints(kin, side)] = True
         return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen)
 
-    def apply(self, s: float, sd: float) -> None:
-        values = self.path.at(s)
-        rates = self.path.rate(s, sd)
-        for i, task in enumerate(self.tasks):
-            task.set_target(float(values[i]), float(rates[i]))
+    def apply(self, s0: float, s1: float, dt: float) -> None:
+        follow_vector(self.tasks, self.path, s0, s1, dt)
 
 
 class VehicleMotion(Motion):
@@ -331,25 +352,17 @@ class VehicleMotion(Motion):
         frozen[self.kin.unit_indices(UnitType.VEHICLE)] = False
         return IKSetup([*self.tasks, _posture(self.kin)], frozen)
 
-    def apply(self, s: float, sd: float) -> None:
-        values = self.path.at(s)
-        rates = self.path.rate(s, sd)
-        for i, task in enumerate(self.tasks):
-            task.set_target(float(values[i]), float(rates[i]))
+    def apply(self, s0: float, s1: float, dt: float) -> None:
+        follow_vector(self.tasks, self.path, s0, s1, dt)
 
     def advance(self) -> None:
         super().advance()
         last = len(self.waypoints) - 2
-        if self.profile.finished and self._segment < last and self.profile.s >= 1.0:
+        if self.profile.finished and not self.profile.stopped and self._segment < last:
             self._segment += 1
             self._start_segment()
 
     @property
     def finished(self) -> bool:
-        return self.profile.finished and (
-            self._segment == len(self.waypoints) - 2 or self.profile.s < 1.0
-        )
-
-
-def line_motion_path(start: pin.SE3, end: pin.SE3) -> LinePath:
-    return LinePath(start, end)
+        last = self._segment == len(self.waypoints) - 2
+        return self.profile.finished and (last or self.profile.stopped)

@@ -6,7 +6,8 @@
   geodesic (constant angular velocity axis), both proportional to s so translation and
   rotation start and stop together.
 * :class:`ArcPath`: a circular arc through a via point; orientation along the geodesic from
-  start to via, then from via to end, switching where the arc passes the via point.
+  start to end (the via pose's orientation is not used: switching geodesics there would
+  make the angular velocity jump, which no acceleration limit allows).
 
 ``limits(...)`` turns axis speed/acceleration limits into limits on ṡ and s̈ (Euclidean for
 translation and rotation, per axis for vectors).
@@ -105,8 +106,9 @@ class LinePath:
 class ArcPath:
     """Circular arc from ``start`` through the position of ``via`` to ``end``.
 
-    Orientation: geodesic from start to via orientation up to the via point, then to the end
-    orientation. The three positions must not be collinear (checked).
+    Position: the circle through the three points, at constant speed in s. Orientation: the
+    geodesic from the start to the end orientation, proportional to s, so translation and
+    rotation start and stop together. The three positions must not be collinear.
     """
 
     def __init__(self, start: pin.SE3, via: pin.SE3, end: pin.SE3):
@@ -117,9 +119,9 @@ class ArcPath:
         if nn < 1e-9 * max(1.0, float(np.linalg.norm(a) * np.linalg.norm(b))):
             raise ValueError("start, via and end points are collinear: no unique arc")
         # Circumcentre of the triangle p0, p1, p2.
-        centre = p0 + (np.dot(a, a) * np.cross(b, normal) + np.dot(b, b) * np.cross(normal, a)) / (
-            2.0 * nn * nn
-        )
+        centre = p0 + (
+            np.dot(a, a) * np.cross(b, normal) + np.dot(b, b) * np.cross(normal, a)
+        ) / (2.0 * nn * nn)
         self.centre = centre
         self.normal = normal / nn
         self.radius = float(np.linalg.norm(p0 - centre))
@@ -127,8 +129,7 @@ class ArcPath:
         self._e2 = np.cross(self.normal, self._e1)
         self.sweep = self._angle_of(p2)
         self.s_via = self._angle_of(p1) / self.sweep
-        self._first = LinePath(start, via)
-        self._second = LinePath(via, end)
+        self._rotation = LinePath(start, end)
         self.start, self.end = start.copy(), end.copy()
 
     def _angle_of(self, p: np.ndarray) -> float:
@@ -142,40 +143,31 @@ class ArcPath:
 
     @property
     def angle(self) -> float:
-        return self._first.angle + self._second.angle
-
-    def _piece(self, s: float) -> tuple[LinePath, float, float]:
-        """Orientation segment, its local parameter and d(local)/ds."""
-        if s <= self.s_via:
-            return self._first, s / self.s_via, 1.0 / self.s_via
-        span = 1.0 - self.s_via
-        return self._second, (s - self.s_via) / span, 1.0 / span
+        return self._rotation.angle
 
     def at(self, s: float) -> pin.SE3:
         s = _clamp(s)
         phi = s * self.sweep
         pos = self.centre + self.radius * (math.cos(phi) * self._e1 + math.sin(phi) * self._e2)
-        seg, local, _ = self._piece(s)
-        return pin.SE3(seg.at(local).rotation, pos)
+        return pin.SE3(self._rotation.at(s).rotation, pos)
 
     def twist(self, s: float, sd: float) -> np.ndarray:
-        s = _clamp(s)
-        phi = s * self.sweep
+        phi = _clamp(s) * self.sweep
         out = np.empty(6)
         tangent = -math.sin(phi) * self._e1 + math.cos(phi) * self._e2
         out[:3] = self.radius * self.sweep * sd * tangent
-        seg, _, dlocal = self._piece(s)
-        out[3:] = seg.omega_world * dlocal * sd
+        out[3:] = self._rotation.omega_world * sd
         return out
 
-    def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
-        """(ṡ_max, s̈_max); rotation is limited on the faster of the two orientation pieces,
-        and the centripetal acceleration v²/r is kept within the translation limit."""
-        rot_rate = max(self._first.angle / self.s_via, self._second.angle / (1.0 - self.s_via))
-        v = min(_ratio(speed[0], self.length), _ratio(speed[1], rot_rate))
+    def limits(
+        self, speed: tuple[float, float], accel: tuple[float, float]
+    ) -> tuple[float, float]:
+        """(ṡ_max, s̈_max); the centripetal acceleration v²/r is kept within the translation
+        acceleration limit too."""
+        v = min(_ratio(speed[0], self.length), _ratio(speed[1], self.angle))
         # Centripetal: (ṡ·L)²/r ≤ a_t  ->  ṡ ≤ √(a_t·r)/L.
         v = min(v, _ratio(math.sqrt(accel[0] * self.radius), self.length))
-        a = min(_ratio(accel[0], self.length), _ratio(accel[1], rot_rate))
+        a = min(_ratio(accel[0], self.length), _ratio(accel[1], self.angle))
         return v, a
 
     def samples(self, step: float = 0.01, angle_step: float = math.radians(2)) -> list[float]:

@@ -52,6 +52,8 @@ class PathProfile:
         if duration is not None:
             self._in.minimum_duration = duration
         self.state = ProfileState.RUNNING
+        #: True once stop() ended the motion before the end of the path.
+        self.stopped = False
         self.s = 0.0
         self.sd = 0.0
         self.sdd = 0.0
@@ -79,8 +81,11 @@ class PathProfile:
         if result == Result.Finished:
             if self.state == ProfileState.PAUSING:
                 self.state = ProfileState.PAUSED
-            else:
+            elif self.state == ProfileState.STOPPING:
                 self.state = ProfileState.DONE
+            else:  # reached the end of the path: exactly 1, not Ruckig's last rounding
+                self.state = ProfileState.DONE
+                self.s = 1.0
             self.sd = self.sdd = 0.0
 
     def _decelerate(self) -> None:
@@ -93,6 +98,7 @@ class PathProfile:
         """Decelerate on the path at the acceleration limit, then end (rest dropped)."""
         if self.state in (ProfileState.DONE, ProfileState.STOPPING):
             return
+        self.stopped = True
         if self.state == ProfileState.PAUSED:
             self.state = ProfileState.DONE
             return

@@ -1,0 +1,350 @@
+"""Motions in closed loop: paths kept, axes together, holds, masks, limits, stop/pause."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from controller.core import CoreState, MotionCore
+from controller.enums import RightLeft, UnitType
+from controller.motion.motions import (
+    CartesianMotion,
+    CPHoldMotion,
+    JointMotion,
+    VehicleMotion,
+)
+from controller.motion.paths import ArcPath, LinePath
+from controller.motion.reachability import ReachabilityChecker
+from controller.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from tests.motion_support import DT, make_core, run_motion
+
+RIGHT = RightLeft.RIGHT
+SPEED = (0.25, math.radians(60))
+ACCEL = (0.5, math.radians(120))
+
+
+def line_deviation(path: LinePath, pose: pin.SE3) -> tuple[float, float]:
+    """Distance [m] from the line and angle [rad] from the geodesic at the closest point."""
+    rel = pose.translation - path.start.translation
+    u = path.dp / path.length
+    along = float(rel @ u)
+    dist = float(np.linalg.norm(rel - along * u))
+    s = min(max(along / path.length, 0.0), 1.0)
+    return dist, float(np.linalg.norm(pin.log3(path.at(s).rotation.T @ pose.rotation)))
+
+
+def hand_target(core: MotionCore, dp, rot) -> tuple[pin.SE3, pin.SE3]:
+    start = core.kin.pose(RIGHT)
+    end = pin.SE3(start.rotation @ pin.exp3(np.array(rot)), start.translation + np.array(dp))
+    return start, end
+
+
+def checked_line(core: MotionCore, dp, rot, allowed=None, ranges=None) -> CartesianMotion:
+    """A line motion of the right hand that the reachability check accepts."""
+    start, end = hand_target(core, dp, rot)
+    motion = CartesianMotion(
+        core.kin, DT, RIGHT, LinePath(start, end), SPEED, ACCEL, allowed or {}, ranges
+    )
+    reason = ReachabilityChecker(core.kin).check(core.kin, RIGHT, motion.path, motion.setup())
+    assert reason is None, reason
+    return motion
+
+
+@pytest.mark.parametrize("robot_id", ["smartpal5", "pa10", "rh", "seednoid"])
+def test_straight_line_stays_on_the_line_in_mujoco(robot_id: str):
+    """Measured on the simulated plant: <= 0.05 mm from the line, <= 0.01 deg from the
+    geodesic, and the target reached."""
+    core = make_core(robot_id, "mujoco")
+    start, end = hand_target(core, [0.1, -0.05, 0.12], [0, 0.2, 0.3])
+    path = LinePath(start, end)
+    worst = [0.0, 0.0]
+
+    def check(c: MotionCore) -> None:
+        d, a = line_deviation(path, c.kin.pose(RIGHT))
+        worst[0], worst[1] = max(worst[0], d), max(worst[1], a)
+
+    run_motion(core, CartesianMotion(core.kin, DT, RIGHT, path, SPEED, ACCEL, {}), check)
+    for _ in range(50):
+        core.cycle()
+    assert worst[0] <= 0.05e-3, f"{worst[0] * 1e3:.4f} mm off the line"
+    assert math.degrees(worst[1]) <= 0.01, f"{math.degrees(worst[1]):.5f} deg off"
+    err = core.kin.pose(RIGHT).translation - end.translation
+    assert np.linalg.norm(err) < 0.05e-3
+
+
+def test_arc_passes_through_the_via_point():
+    core = make_core("smartpal5")
+    start = core.kin.pose(RIGHT)
+    via = pin.SE3(start.rotation, start.translation + np.array([0.0, 0.06, 0.06]))
+    end = pin.SE3(
+        start.rotation @ pin.exp3(np.array([0, 0, 0.3])),
+        start.translation + np.array([0.0, 0.12, 0.0]),
+    )
+    path = ArcPath(start, via, end)
+    motion = CartesianMotion(core.kin, DT, RIGHT, path, SPEED, ACCEL, {elbow_axis(RIGHT): True})
+    assert ReachabilityChecker(core.kin).check(core.kin, RIGHT, path, motion.setup()) is None
+    radial, closest = [], []
+
+    def check(c: MotionCore) -> None:
+        p = c.kin.pose(RIGHT).translation
+        radial.append(abs(np.linalg.norm(p - path.centre) - path.radius))
+        closest.append(np.linalg.norm(p - via.translation))
+
+    run_motion(core, motion, check)
+    assert max(radial) < 0.05e-3
+    assert min(closest) < 0.5e-3  # passes the via point (within one cycle's travel)
+    assert np.linalg.norm(core.kin.pose(RIGHT).translation - end.translation) < 0.05e-3
+
+
+def test_ptp_axes_start_and_arrive_together():
+    core = make_core("smartpal5")
+    joints = core.kin.unit_indices(UnitType.RIGHT_ARM)
+    start = core.q_cmd[joints].copy()
+    delta = np.radians([20, -10, 30, -25, 40, 10, -15])
+    specs = core.ik.box
+    motion = JointMotion(
+        core.kin, DT, joints, start + delta, specs.v_max[joints], specs.a_max[joints]
+    )
+    spread = []
+
+    def check(c: MotionCore) -> None:
+        progress = (c.q_cmd[joints] - start) / delta
+        spread.append(float(progress.max() - progress.min()))
+
+    cycles = run_motion(core, motion, check)
+    assert max(spread) < 0.01, "joints out of step"
+    assert np.allclose(core.q_cmd[joints], start + delta, atol=1e-6)
+    assert cycles * DT > 0.5
+
+
+def test_ptp_with_a_duration_takes_that_long():
+    core = make_core("pa10")
+    joints = core.kin.unit_indices(UnitType.RIGHT_ARM)
+    start = core.q_cmd[joints].copy()
+    specs = core.ik.box
+    motion = JointMotion(
+        core.kin, DT, joints, start + 0.2, specs.v_max[joints], specs.a_max[joints], 2.0
+    )
+    cycles = run_motion(core, motion)
+    assert abs(cycles * DT - 2.0) <= 3 * DT
+
+
+@pytest.mark.parametrize("held", [(RIGHT,), (RIGHT, RightLeft.LEFT)])
+def test_cp_hold_keeps_the_hands_while_elbow_waist_and_vehicle_move(held):
+    """SmartPal V in MuJoCo: elbow +10 deg, trunk +10 deg, vehicle -0.1 m, 0.05 m, -5 deg;
+    the held control points stay within 0.05 mm (measured) and every axis arrives."""
+    core = make_core("smartpal5", "mujoco")
+    kin = core.kin
+    start = {side: kin.pose(side).copy() for side in held}
+    targets = {
+        RedundantAxis.LUMBAR_RY: axis_value(kin, RedundantAxis.LUMBAR_RY) + math.radians(10),
+        RedundantAxis.VEHICLE_X: -0.1,
+        RedundantAxis.VEHICLE_Y: 0.05,
+        RedundantAxis.VEHICLE_THETA: math.radians(-5),
+    }
+    if len(held) == 1:
+        targets[elbow_axis(RIGHT)] = axis_value(kin, elbow_axis(RIGHT)) + math.radians(10)
+    speed = np.array([math.radians(20), 0.2, 0.2, math.radians(20), math.radians(20)])
+    accel = 2 * speed
+    motion = CPHoldMotion(kin, DT, held, targets, speed[: len(targets)], accel[: len(targets)])
+    worst = []
+
+    def check(c: MotionCore) -> None:
+        worst.append(
+            max(np.linalg.norm(c.kin.pose(s).translation - start[s].translation) for s in held)
+        )
+
+    run_motion(core, motion, check)
+    for _ in range(100):
+        core.cycle()
+    assert max(worst) <= 0.05e-3, f"hand moved {max(worst) * 1e3:.4f} mm"
+    for axis, goal in targets.items():
+        assert abs(axis_value(kin, axis) - goal) < 1e-5, axis
+
+
+def test_masked_axes_never_move():
+    """No redundant axis selected: waist and vehicle joints are never commanded to move,
+    the elbow angle stays (ideal drives)."""
+    core = make_core("smartpal5")
+    kin = core.kin
+    fixed = np.concatenate(
+        [
+            kin.unit_indices(UnitType.LUMBER),
+            kin.unit_indices(UnitType.VEHICLE),
+            kin.unit_indices(UnitType.LEFT_ARM),
+        ]
+    )
+    before = core.q_cmd[fixed].copy()
+    elbow0 = kin.elbow_angle(RIGHT)
+    motion = checked_line(core, [0.12, -0.06, 0.1], [0.2, 0, 0.2])
+    elbow = []
+
+    def check(c: MotionCore) -> None:
+        assert np.array_equal(c.q_cmd[fixed], before)
+        elbow.append(abs(c.kin.elbow_angle(RIGHT) - elbow0))
+
+    run_motion(core, motion, check)
+    assert max(elbow) < 1e-5
+
+
+def test_redundant_limits_hold():
+    """Elbow and trunk allowed within narrow ranges: they stay inside while the hand moves
+    where, unconstrained, they would leave them."""
+    core = make_core("smartpal5")
+    kin = core.kin
+    e0 = axis_value(kin, elbow_axis(RIGHT))
+    ranges = {
+        elbow_axis(RIGHT): (e0 - math.radians(2), e0 + math.radians(2)),
+        RedundantAxis.LUMBAR_RY: (-math.radians(1), math.radians(3)),
+    }
+    allowed = {elbow_axis(RIGHT): True, RedundantAxis.LUMBAR_RY: True}
+    start, end = hand_target(core, [0.15, 0.05, -0.15], [0, 0.3, 0])
+    seen = {axis: [] for axis in ranges}
+
+    def check(c: MotionCore) -> None:
+        for axis in ranges:
+            seen[axis].append(axis_value(c.kin, axis))
+
+    motion = CartesianMotion(kin, DT, RIGHT, LinePath(start, end), SPEED, ACCEL, allowed, ranges)
+    run_motion(core, motion, check)
+    for axis, (lo, hi) in ranges.items():
+        assert min(seen[axis]) >= lo - 1e-6 and max(seen[axis]) <= hi + 1e-6, axis
+
+
+def test_differential_base_never_moves_sideways():
+    core = make_core("rh")
+    kin = core.kin
+    vx, vy, vt = kin.unit_indices(UnitType.VEHICLE)
+    lateral = []
+
+    def check(c: MotionCore) -> None:
+        th = c.q_cmd[vt]
+        lateral.append(abs(-math.sin(th) * c.v_cmd[vx] + math.cos(th) * c.v_cmd[vy]))
+
+    target = np.array([-0.3, 0.4, math.radians(45)])
+    run_motion(
+        core,
+        VehicleMotion(kin, DT, target, (0.3, math.radians(45)), (0.5, math.radians(90))),
+        check,
+    )
+    assert max(lateral) < 1e-9
+    assert np.allclose(kin.vehicle_pose(), target, atol=1e-4)
+
+
+def _accelerations_ok(core: MotionCore, previous: list[np.ndarray]) -> bool:
+    v = core.v_cmd.copy()
+    ok = previous == [] or bool(
+        np.all(np.abs(v - previous[0]) <= core.ik.box.a_max * DT * (1 + 1e-9) + 1e-12)
+    )
+    previous[:] = [v]
+    return ok
+
+
+@pytest.mark.parametrize("action", ["stop", "pause"])
+def test_stop_and_pause_decelerate_on_the_path_within_the_limits(action: str):
+    core = make_core("smartpal5")
+    motion = checked_line(core, [0.1, -0.05, 0.12], [0, 0.2, 0.3])
+    path = motion.path
+    end = path.at(1.0)
+    core.start(motion)
+    prev: list[np.ndarray] = []
+    for _ in range(250):  # well into the cruise
+        core.cycle()
+        assert _accelerations_ok(core, prev)
+    getattr(core, action)()
+    dev = []
+    for _ in range(600):
+        core.cycle()
+        assert _accelerations_ok(core, prev)
+        dev.append(line_deviation(path, core.kin.pose(RIGHT))[0])
+    assert max(dev) < 0.05e-3
+    assert np.abs(core.v_cmd).max() < 1e-9
+    remaining = np.linalg.norm(core.kin.pose(RIGHT).translation - end.translation)
+    assert remaining > 0.01  # stopped before the end
+    if action == "stop":
+        assert core.state == CoreState.READY and core.motion is None
+    else:
+        assert core.state == CoreState.PAUSED
+        core.resume()
+        assert core.state == CoreState.BUSY
+        while core.motion is not None:
+            core.cycle()
+            assert _accelerations_ok(core, prev)
+        assert np.linalg.norm(core.kin.pose(RIGHT).translation - end.translation) < 0.05e-3
+
+
+def test_abort_holds_within_one_cycle():
+    core = make_core("smartpal5")
+    core.start(checked_line(core, [0.1, -0.05, 0.12], [0, 0.2, 0.3]))
+    for _ in range(200):
+        core.cycle()
+    assert np.abs(core.v_cmd).max() > 0.01
+    core.abort()
+    core.cycle()
+    held = core.q_cmd.copy()
+    assert np.abs(core.v_cmd).max() == 0.0
+    for _ in range(20):
+        core.cycle()
+    assert np.array_equal(core.q_cmd, held)
+    assert core.state == CoreState.READY
+
+
+# ------------------------------------------------------------------ property: joint limits
+MASKABLE = [
+    RedundantAxis.RIGHT_ELBOW,
+    RedundantAxis.LUMBAR_RY,
+    RedundantAxis.VEHICLE_X,
+    RedundantAxis.VEHICLE_Y,
+    RedundantAxis.VEHICLE_THETA,
+]
+_CORE: list[MotionCore] = []
+
+
+def _shared_core() -> MotionCore:
+    if not _CORE:
+        _CORE.append(make_core("smartpal5"))
+    return _CORE[0]
+
+
+@settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    dp=st.tuples(*[st.floats(-0.5, 0.5) for _ in range(3)]),
+    rot=st.tuples(*[st.floats(-1.2, 1.2) for _ in range(3)]),
+    mask=st.lists(st.booleans(), min_size=len(MASKABLE), max_size=len(MASKABLE)),
+    hold=st.booleans(),
+    start_offset=st.floats(-0.6, 0.6),
+)
+def test_no_target_and_mask_ever_crosses_a_joint_limit(dp, rot, mask, hold, start_offset):
+    """Random targets (reachable or not, no reachability check) and random masks, from
+    random arm postures: commanded positions never leave the joint limits."""
+    core = _shared_core()
+    kin, hw = core.kin, core.hw
+    core.clear_alarms()
+    core.servo_off()
+    home = kin.home()
+    arm = kin.unit_indices(UnitType.RIGHT_ARM)
+    lo, hi = core.ik.box.q_min, core.ik.box.q_max
+    q = home.copy()
+    q[arm] = np.clip(home[arm] + start_offset, lo[arm] + 1e-3, hi[arm] - 1e-3)
+    hw.place({name: float(q[kin.index(name)]) for name in kin.joint_names})
+    core.servo_on()
+    core.cycle()
+    start = kin.pose(RIGHT)
+    end = pin.SE3(start.rotation @ pin.exp3(np.array(rot)), start.translation + np.array(dp))
+    allowed = {axis: m for axis, m in zip(MASKABLE, mask, strict=True)}
+    path = LinePath(start, end)
+    core.start(
+        CartesianMotion(kin, DT, RIGHT, path, (1.0, 3.0), (4.0, 12.0), allowed, hold_other=hold)
+    )
+    for _ in range(250):
+        core.cycle()
+        assert core.state in (CoreState.BUSY, CoreState.READY), core.alarms
+        assert np.all(core.q_cmd >= lo - 1e-9) and np.all(core.q_cmd <= hi + 1e-9)
+        if core.motion is None:
+            break
+    core.abort()
