@@ -1,0 +1,163 @@
+"""controller.core: states, faults becoming alarms, recovery, grippers, threads."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from controller.alarms import AlarmCode
+from controller.core import CoreError, CoreState, MotionCore
+from controller.enums import RightLeft, UnitType
+from controller.motion.motions import JointMotion
+from controller.qp.ik import IKResult
+from hal.ideal_backend import IdealBackend
+from hal.interface import HardwareFault, HardwareState
+from tests.motion_support import DT, make_core
+from tests.support import robot
+
+
+def arm_move(core: MotionCore, delta: float = 0.3) -> JointMotion:
+    joints = core.kin.unit_indices(UnitType.RIGHT_ARM)
+    box = core.ik.box
+    return JointMotion(
+        core.kin, DT, joints, core.q_cmd[joints] + delta, box.v_max[joints], box.a_max[joints]
+    )
+
+
+def test_servo_on_and_off():
+    core = MotionCore(robot("pa10"), IdealBackend(robot("pa10"), DT), DT)
+    assert core.state == CoreState.SERVO_OFF
+    core.servo_on()
+    assert core.state == CoreState.READY and core.hw.state == HardwareState.ACTIVE
+    core.servo_off()
+    assert core.state == CoreState.SERVO_OFF and core.hw.state == HardwareState.INACTIVE
+
+
+@pytest.mark.parametrize("state", ["servo off", "busy", "paused", "alarm"])
+def test_motion_starts_only_when_ready(state: str):
+    core = make_core("pa10")
+    if state == "servo off":
+        core.servo_off()
+    elif state == "busy":
+        core.start(arm_move(core))
+    elif state == "paused":
+        core.pause()
+    else:
+        core.raise_alarm(AlarmCode.EMERGENCY_STOP, "test", "e-stop")
+    with pytest.raises(CoreError):
+        core.start(arm_move(core))
+
+
+def test_pause_and_resume_while_idle():
+    core = make_core("pa10")
+    core.pause()
+    assert core.state == CoreState.PAUSED
+    core.cycle()
+    core.resume()
+    assert core.state == CoreState.READY
+
+
+def test_nothing_moves_while_servo_off():
+    core = make_core("pa10")
+    core.servo_off()
+    before = core.hw.read().position
+    for _ in range(10):
+        core.cycle()
+    assert np.array_equal(core.hw.read().position, before)
+
+
+@pytest.mark.parametrize("when", [0, 100])
+def test_hardware_fault_stops_everything_and_is_recoverable(when: int):
+    core = make_core("smartpal5")
+    core.start(arm_move(core))
+    for _ in range(when):
+        core.cycle()
+    hw = core.hw
+    assert isinstance(hw, IdealBackend)
+    hw.inject_fault(HardwareFault(int(AlarmCode.DRIVE_FAULT), "r_arm_j3", "overcurrent"))
+    held = hw.read().position
+    core.cycle()
+    assert core.state == CoreState.ALARM
+    assert core.motion is None
+    assert core.alarms[0].module == "r_arm_j3" and core.alarms[0].code == 0x400
+    for _ in range(10):
+        core.cycle()
+    assert np.array_equal(hw.read().position, held)
+    with pytest.raises(CoreError):
+        core.servo_on()
+    core.clear_alarms()
+    assert core.state == CoreState.SERVO_OFF and not core.alarms
+    core.servo_on()
+    assert core.state == CoreState.READY
+    core.start(arm_move(core, -0.1))
+    while core.motion is not None:
+        core.cycle()
+    assert core.state == CoreState.READY
+
+
+def test_qp_failure_raises_an_alarm_and_holds(monkeypatch: pytest.MonkeyPatch):
+    core = make_core("pa10")
+    core.start(arm_move(core))
+    for _ in range(50):
+        core.cycle()
+    monkeypatch.setattr(
+        core.ik, "solve", lambda q, v: IKResult(np.zeros(core.kin.nv), False, "infeasible")
+    )
+    before = core.hw.read().position
+    core.cycle()
+    assert core.state == CoreState.ALARM
+    assert core.alarms[-1].code == AlarmCode.QP_FAILURE
+    assert np.allclose(core.hw.read().position, before, atol=1e-12)
+
+
+def test_time_law_failure_raises_an_alarm():
+    core = make_core("pa10")
+    motion = arm_move(core)
+    core.start(motion)
+
+    def broken() -> None:
+        raise RuntimeError("Ruckig failed")
+
+    motion.advance = broken  # type: ignore[method-assign]
+    core.cycle()
+    assert core.state == CoreState.ALARM
+    assert core.alarms[-1].code == AlarmCode.TRAJECTORY_FAILURE
+
+
+def test_gripper_moves_to_a_ratio():
+    core = make_core("smartpal5")
+    assert core.gripper_ratio(RightLeft.LEFT) == pytest.approx(0.0)
+    core.move_gripper(RightLeft.LEFT, 0.5)
+    assert core.is_moving
+    for _ in range(2000):
+        core.cycle()
+        if not core.is_moving:
+            break
+    assert not core.is_moving
+    assert core.gripper_ratio(RightLeft.LEFT) == pytest.approx(0.5, abs=1e-9)
+    assert core.gripper_ratio(RightLeft.RIGHT) == pytest.approx(0.0)
+
+
+def test_commands_from_another_thread_land_between_cycles():
+    core = make_core("pa10")
+    stop = threading.Event()
+
+    def loop() -> None:
+        while not stop.is_set():
+            core.cycle()
+
+    thread = threading.Thread(target=loop)
+    thread.start()
+    try:
+        core.start(arm_move(core, 0.2))
+        while core.state != CoreState.READY:
+            pass
+        core.start(arm_move(core, -0.2))
+        core.abort()
+        assert core.motion is None
+    finally:
+        stop.set()
+        thread.join()
+    assert core.state == CoreState.READY
