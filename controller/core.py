@@ -81,6 +81,7 @@ class MotionCore:
         self.hw = hardware
         self.dt = dt
         self.kin = Kinematics(robot)
+        self._planning = Kinematics(robot)
         self.ik = WholeBodyIK(self.kin, dt, solver)
         names = list(hardware.joint_names)
         missing = [n for n in self.kin.joint_names if n not in names]
@@ -156,6 +157,15 @@ class MotionCore:
         with self._lock:
             self.q = self.hw.read().position[self._hw_index].copy()
             self.kin.update(self.q)
+
+    def planning_kinematics(self) -> Kinematics:
+        """A copy of the kinematics at the current measured state (offsets and original frame
+        included), for building and checking motions outside the control thread. One copy is
+        reused: use it from one planning thread at a time."""
+        with self._lock:
+            self._planning.copy_frames_from(self.kin)
+            self._planning.update(self.kin.q.copy())
+        return self._planning
 
     def start(self, motion: Motion) -> None:
         """Run ``motion`` (built against the current measured state). Only from READY."""

@@ -49,6 +49,8 @@ class RealtimeReport:
     #: Scheduling policy and priority of the thread before the call, for :func:`restore`.
     previous_policy: int | None = None
     previous_priority: int | None = None
+    #: Set by :func:`restore`; the flags above keep saying what was in effect.
+    restored: bool = False
 
     @property
     def all_in_effect(self) -> bool:
@@ -79,20 +81,20 @@ def apply_realtime(
 
 
 def restore(report: RealtimeReport) -> None:
-    """Undo what ``report`` says took effect. Call from the thread that applied it."""
+    """Undo what ``report`` says took effect (once). Call from the thread that applied it."""
+    if report.restored:
+        return
+    report.restored = True
     if report.fifo and report.previous_policy is not None:
         param = os.sched_param(report.previous_priority or 0)
         os.sched_setscheduler(0, report.previous_policy, param)
-        report.fifo = False
     if report.memory_locked:
         try:
             _libc().munlockall()
         except (OSError, AttributeError) as exc:
             _log.warning("real-time restore: munlockall failed: %s", _reason(exc))
-        report.memory_locked = False
     if report.gc_frozen:
         gc.unfreeze()
-        report.gc_frozen = False
 
 
 def _set_fifo(report: RealtimeReport) -> None:

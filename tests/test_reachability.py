@@ -1,0 +1,225 @@
+"""ReachabilityChecker: a Cartesian path followed by a position-level IK before it is run."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from controller.enums import RightLeft, UnitType
+from controller.kinematics import Kinematics
+from controller.motion.motions import CartesianMotion
+from controller.motion.paths import ArcPath, LinePath
+from controller.motion.reachability import POSITION_TOL, ReachabilityChecker
+from controller.redundant_axes import RedundantAxis
+from tests.support import kinematics
+
+RIGHT, LEFT = RightLeft.RIGHT, RightLeft.LEFT
+DT = 0.002
+SPEED = (0.25, math.radians(60))
+ACCEL = (0.5, math.radians(120))
+ELBOW = {RedundantAxis.RIGHT_ELBOW: True}
+WAIST = {RedundantAxis.LUMBAR_RY: True}
+#: SmartPal V waist (lumbarRy = lumbar_lower + lumbar_upper): its full range [rad].
+WAIST_FULL_RANGE = (math.radians(-12.0), math.radians(121.0))
+
+
+def at_home(robot_id: str) -> Kinematics:
+    kin = kinematics(robot_id)
+    kin.update(kin.home())
+    return kin
+
+
+def line_from_hand(kin: Kinematics, dp, rot=(0.0, 0.0, 0.0), side=RIGHT) -> LinePath:
+    """Line from the control point, ``dp`` [m] in the original frame, ``rot`` [rad] about the
+    control point's own axes."""
+    start = kin.pose(side)
+    end = pin.SE3(
+        start.rotation @ pin.exp3(np.asarray(rot, dtype=float)),
+        start.translation + np.asarray(dp, dtype=float),
+    )
+    return LinePath(start, end)
+
+
+def check(
+    kin: Kinematics,
+    path: LinePath | ArcPath,
+    allowed: dict[RedundantAxis, bool] | None = None,
+    ranges: dict[RedundantAxis, tuple[float, float] | None] | None = None,
+    hold_other: bool = False,
+    checker: ReachabilityChecker | None = None,
+) -> str | None:
+    """The checker's verdict on moving the right hand along ``path`` as a CartesianMotion
+    with these settings would (a fresh checker unless one is given)."""
+    motion = CartesianMotion(
+        kin, DT, RIGHT, path, SPEED, ACCEL, allowed or {}, ranges, hold_other=hold_other
+    )
+    checker = checker or ReachabilityChecker(kin)
+    return checker.check(kin, RIGHT, path, motion.setup(), hold=LEFT if hold_other else None)
+
+
+def assert_refused(reason: str | None) -> None:
+    assert isinstance(reason, str) and reason, "expected a refusal with a reason"
+    assert reason.startswith(("the path at ", "the target ")), reason
+
+
+# ------------------------------------------------------------------------------ verdicts
+def test_short_line_in_front_of_the_hand_is_reachable():
+    kin = at_home("smartpal5")
+    assert check(kin, line_from_hand(kin, [0.1, 0.0, 0.0])) is None
+
+
+def test_short_arc_is_reachable():
+    kin = at_home("smartpal5")
+    start = kin.pose(RIGHT)
+    via = pin.SE3(start.rotation, start.translation + np.array([0.0, 0.06, 0.06]))
+    end = pin.SE3(
+        start.rotation @ pin.exp3(np.array([0.0, 0.0, 0.3])),
+        start.translation + np.array([0.0, 0.12, 0.0]),
+    )
+    assert check(kin, ArcPath(start, via, end), ELBOW) is None
+
+
+def test_target_far_out_of_reach_is_refused_with_the_distance_left():
+    kin = at_home("smartpal5")
+    reason = check(kin, line_from_hand(kin, [1.5, 0.0, 0.0]), {**ELBOW, **WAIST})
+    assert_refused(reason)
+    assert "not reachable" in reason
+    assert "mm" in reason
+
+
+def test_target_far_out_of_reach_is_refused_with_no_redundant_axis_either():
+    kin = at_home("smartpal5")
+    assert_refused(check(kin, line_from_hand(kin, [1.5, 0.0, 0.0])))
+
+
+@pytest.mark.parametrize("allowed", [{}, {**ELBOW, **WAIST}], ids=["held", "elbow+waist"])
+def test_target_behind_the_robot_through_the_torso_is_refused(allowed):
+    kin = at_home("smartpal5")
+    start = kin.pose(RIGHT)
+    behind = np.array([-0.4, start.translation[1], start.translation[2]])
+    reason = check(kin, LinePath(start, pin.SE3(start.rotation, behind)), allowed)
+    assert_refused(reason)
+    assert "not reachable" in reason
+
+
+def test_raising_the_hand_needs_the_elbow():
+    """15 cm straight up: with the elbow held the wrist runs into its limit on the way."""
+    kin = at_home("smartpal5")
+    path = line_from_hand(kin, [0.0, 0.0, 0.15])
+    held = check(kin, path, {})
+    assert_refused(held)
+    assert "not reachable" in held
+    assert check(kin, path, ELBOW) is None
+
+
+def test_waist_range_that_excludes_the_needed_bend_refuses_a_far_low_target():
+    """30 cm forward and down needs about 56 deg of trunk bend."""
+    kin = at_home("smartpal5")
+    path = line_from_hand(kin, [0.3, 0.0, -0.3])
+    narrow = {RedundantAxis.LUMBAR_RY: (math.radians(-1.0), math.radians(10.0))}
+    assert_refused(check(kin, path, WAIST, narrow))
+    assert check(kin, path, WAIST, {RedundantAxis.LUMBAR_RY: WAIST_FULL_RANGE}) is None
+    assert check(kin, path, WAIST) is None  # no range: unlimited
+    assert_refused(check(kin, path, {}))  # waist not allowed: frozen
+
+
+def test_the_plan_keeps_the_waist_inside_its_range():
+    kin = at_home("smartpal5")
+    checker = ReachabilityChecker(kin)
+    lo, hi = math.radians(-1.0), math.radians(45.0)
+    path = line_from_hand(kin, [0.2, 0.0, -0.2])
+    assert check(kin, path, WAIST, {RedundantAxis.LUMBAR_RY: (lo, hi)}, checker=checker) is None
+    bend = checker.kin.lumbar_angle(RedundantAxis.LUMBAR_RY.lumbar)
+    assert lo - 1e-6 <= bend <= hi + 1e-6
+    assert bend > math.radians(5.0)  # the waist did take part
+
+
+@pytest.mark.parametrize("robot_id", ["pa10", "rh"])
+@pytest.mark.parametrize(
+    ("dp", "rot"),
+    [([0.05, 0.0, 0.0], [0.0, 0.0, 0.0]), ([0.03, -0.03, 0.03], [0.2, 0.0, 0.2])],
+    ids=["shift", "shift+turn"],
+)
+def test_small_moves_on_single_arm_robots_are_reachable(robot_id, dp, rot):
+    kin = at_home(robot_id)
+    assert check(kin, line_from_hand(kin, dp, rot)) is None
+
+
+@pytest.mark.parametrize("allowed", [{}, WAIST], ids=["waist frozen", "waist allowed"])
+def test_holding_the_other_arm_still_allows_a_small_move(allowed):
+    kin = at_home("smartpal5")
+    checker = ReachabilityChecker(kin)
+    left = kin.pose(LEFT)
+    path = line_from_hand(kin, [0.05, 0.0, -0.05])
+    assert check(kin, path, allowed, hold_other=True, checker=checker) is None
+    # The planned configuration keeps the held hand where it was.
+    planned = checker.kin.pose(LEFT)
+    assert np.linalg.norm(planned.translation - left.translation) < POSITION_TOL
+
+
+# ---------------------------------------------------------------------- live kinematics
+@pytest.mark.parametrize("dp", [[0.1, 0.0, 0.0], [1.5, 0.0, 0.0]], ids=["reachable", "refused"])
+def test_the_check_leaves_the_live_kinematics_alone(dp):
+    kin = at_home("smartpal5")
+    q = kin.q.copy()
+    poses = {side: kin.pose(side).copy() for side in kin.arms}
+    offsets = {side: kin.control_point_offset(side).copy() for side in kin.arms}
+    original = kin.original_frame.copy()
+    check(kin, line_from_hand(kin, dp), ELBOW)
+    assert np.array_equal(kin.q, q)
+    for side in kin.arms:
+        assert kin.pose(side).isApprox(poses[side], 0.0)
+        assert kin.control_point_offset(side).isApprox(offsets[side], 0.0)
+    assert kin.original_frame.isApprox(original, 0.0)
+
+
+def test_the_checker_takes_the_live_control_point_offset():
+    """A checker built before the tool changed still plans for the live control point."""
+    kin = at_home("smartpal5")
+    checker = ReachabilityChecker(kin)
+    kin.set_control_point_offset(RIGHT, pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.5])))
+    kin.update(kin.q)
+    assert check(kin, line_from_hand(kin, [0.05, 0.0, 0.0]), checker=checker) is None
+    checker.kin.update(kin.q)
+    assert checker.kin.pose(RIGHT).isApprox(kin.pose(RIGHT), 1e-12)
+
+
+def test_a_long_tool_makes_a_wrist_turn_unreachable():
+    """Turning 40 deg about the tool's x axis: in place with the stock tool; with a 0.5 m
+    tool the flange must swing around the tool tip, beyond what the arm can do."""
+    kin = at_home("smartpal5")
+    checker = ReachabilityChecker(kin)
+    turn = [math.radians(-40.0), 0.0, 0.0]
+    assert check(kin, line_from_hand(kin, [0, 0, 0], turn), ELBOW, checker=checker) is None
+    kin.set_control_point_offset(RIGHT, pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.5])))
+    kin.update(kin.q)
+    assert_refused(check(kin, line_from_hand(kin, [0, 0, 0], turn), ELBOW, checker=checker))
+
+
+def test_the_checker_takes_the_live_original_frame():
+    """After the vehicle moved and the original frame was reset, poses are in the new frame."""
+    kin = at_home("smartpal5")
+    checker = ReachabilityChecker(kin)
+    q = kin.q.copy()
+    vx, _, vtheta = kin.unit_indices(UnitType.VEHICLE)
+    q[vx], q[vtheta] = 1.0, 0.7
+    kin.update(q)
+    kin.reset_original_frame()
+    assert check(kin, line_from_hand(kin, [0.05, 0.0, 0.0]), checker=checker) is None
+    assert checker.kin.original_frame.isApprox(kin.original_frame, 1e-12)
+
+
+# ------------------------------------------------------------------------------ history
+def test_a_refused_check_does_not_change_the_verdict_on_the_next_one():
+    """One checker serves many requests: a refusal whose IK ran the QP into its iteration
+    limit must not leave a warm start that refuses the next, reachable, path."""
+    kin = at_home("smartpal5")
+    small = line_from_hand(kin, [0.05, 0.0, 0.0])
+    assert check(kin, small) is None  # fresh checker
+    checker = ReachabilityChecker(kin)
+    awkward = line_from_hand(kin, [0.2, 0.0, -0.1], [-0.4, -0.8, -1.2])
+    assert_refused(check(kin, awkward, WAIST, checker=checker))
+    assert check(kin, small, checker=checker) is None

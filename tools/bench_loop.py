@@ -1,0 +1,195 @@
+#!/usr/bin/env python3
+"""Closed-loop benchmark: the motion core on MuJoCo at a fixed rate, running a scripted mix.
+
+Usage: python tools/bench_loop.py [--robot smartpal5] [--rate 1000] [--seconds 20]
+                                  [--no-realtime]
+
+The mix repeats: hand line out and back, elbow swing with the hand held, joint PTP out and
+back, waist bend with the hands held, vehicle out and back (each where the robot has it).
+Motions are built and reachability-checked in a planner thread on the core's planning copy
+of the kinematics, as the daemon's service thread does; the loop only starts them. Prints
+cycle compute time and wake latency (p50/p99/max), overruns and late cycles, and as the last
+line a JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np
+import pinocchio as pin
+
+from controller.core import CoreState, MotionCore
+from controller.enums import RightLeft, UnitType
+from controller.loop import FixedRateLoop
+from controller.motion.motions import (
+    CartesianMotion,
+    CPHoldMotion,
+    JointMotion,
+    Motion,
+    VehicleMotion,
+)
+from controller.motion.paths import LinePath
+from controller.motion.reachability import ReachabilityChecker
+from controller.redundant_axes import axis_value, elbow_axis
+from controller.robot import load_robot
+from hal.mujoco_backend import MujocoBackend
+
+RIGHT = RightLeft.RIGHT
+Factory = Callable[[MotionCore], Motion | None]
+
+
+def script(core: MotionCore) -> list[Factory]:
+    """The motion mix for this robot: factories building each motion on the planning copy."""
+    kin, dt = core.planning_kinematics(), core.dt
+    checker = ReachabilityChecker(kin)
+
+    def line(sign: float) -> Factory:
+        def make(c: MotionCore) -> Motion | None:
+            start = kin.pose(RIGHT)
+            end = pin.SE3(start.rotation, start.translation + sign * np.array([0.05, 0, 0.05]))
+            m = CartesianMotion(kin, dt, RIGHT, LinePath(start, end), (0.2, 1.0), (0.5, 2.0), {})
+            return m if checker.check(kin, RIGHT, m.path, m.setup()) is None else None
+
+        return make
+
+    def hold(axis_of: Callable[[], object], delta: float, held: tuple[RightLeft, ...]) -> Factory:
+        def make(c: MotionCore) -> Motion | None:
+            axis = axis_of()
+            goal = axis_value(kin, axis) + delta  # type: ignore[arg-type]
+            speed = np.array([math.radians(20)])
+            return CPHoldMotion(kin, dt, held, {axis: goal}, speed, 2 * speed)  # type: ignore[dict-item]
+
+        return make
+
+    def ptp(delta: float) -> Factory:
+        def make(c: MotionCore) -> Motion | None:
+            joints = kin.unit_indices(UnitType.RIGHT_ARM)
+            box = c.ik.box
+            return JointMotion(
+                kin,
+                dt,
+                joints,
+                c.q_cmd[joints] + delta,
+                0.5 * box.v_max[joints],
+                0.5 * box.a_max[joints],
+            )
+
+        return make
+
+    def drive(x: float) -> Factory:
+        def make(c: MotionCore) -> Motion | None:
+            pose = kin.vehicle_pose()
+            return VehicleMotion(kin, dt, np.array([x, pose[1], pose[2]]), (0.2, 0.5), (0.4, 1.0))
+
+        return make
+
+    mix: list[Factory] = [line(1.0), line(-1.0)]
+    if kin.has_elbow(RIGHT):
+        mix += [
+            hold(lambda: elbow_axis(RIGHT), math.radians(10), (RIGHT,)),
+            hold(lambda: elbow_axis(RIGHT), -math.radians(10), (RIGHT,)),
+        ]
+    mix += [ptp(0.2), ptp(-0.2)]
+    lumbar = [a for a in core.ik.axes if a.is_lumbar]
+    if lumbar:
+        arms = tuple(kin.arms)
+        mix += [
+            hold(lambda: lumbar[0], math.radians(5), arms),
+            hold(lambda: lumbar[0], -math.radians(5), arms),
+        ]
+    if kin.has_vehicle:
+        mix += [drive(0.2), drive(0.0)]
+    return mix
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="smartpal5")
+    parser.add_argument("--rate", type=float, default=1000.0)
+    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
+    args = parser.parse_args()
+
+    robot = load_robot(args.robot)
+    dt = 1.0 / args.rate
+    core = MotionCore(robot, MujocoBackend(robot, dt), dt)
+    core.servo_on()
+    mix = script(core)
+    done = {"motions": 0, "skipped": 0, "next": 0}
+    ready: list[Motion] = []
+    finished = threading.Event()
+
+    def planner() -> None:
+        while not finished.is_set():
+            if not ready and core.state == CoreState.READY and core.motion is None:
+                core.planning_kinematics()  # refresh the copy the factories use
+                motion = mix[done["next"] % len(mix)](core)
+                done["next"] += 1
+                if motion is None:
+                    done["skipped"] += 1
+                else:
+                    ready.append(motion)
+            time.sleep(0.001)
+
+    def step(cycle: int, t: float) -> bool:
+        core.cycle()
+        if ready and core.state == CoreState.READY and core.motion is None:
+            core.start(ready.pop())
+            done["motions"] += 1
+        return core.state != CoreState.ALARM
+
+    thread = threading.Thread(target=planner, daemon=True)
+    thread.start()
+
+    loop = FixedRateLoop(
+        args.rate,
+        step,
+        realtime=not args.no_realtime,
+        stats_capacity=int(args.rate * args.seconds) + 10,
+    )
+    loop.run(max_cycles=int(args.rate * args.seconds))
+    finished.set()
+    thread.join()
+    stats = loop.stats.summary()
+    report = loop.realtime_report
+    print(
+        f"robot {args.robot}, {args.rate:g} Hz, {args.seconds:g} s, "
+        f"{done['motions']} motions ({done['skipped']} skipped), state {core.state.value}"
+    )
+    if report is not None:
+        print(f"real-time: {report}")
+    for name in ("compute_us", "wake_latency_us"):
+        print(
+            f"{name:16s} p50 {stats[f'{name}_p50']:8.1f}  p99 {stats[f'{name}_p99']:8.1f}  "
+            f"max {stats[f'{name}_max']:8.1f}"
+        )
+    print(
+        f"cycles {stats['cycles']}, overruns {stats['overruns']}, "
+        f"late by > half a period {stats['late_by_more_than_half_period']}"
+    )
+    if core.alarms:
+        print(f"alarms: {core.alarms}")
+    result = {
+        "robot": args.robot,
+        "rate_hz": args.rate,
+        "seconds": args.seconds,
+        "motions": done["motions"],
+        "alarms": len(core.alarms),
+        **stats,
+    }
+    print(json.dumps(result))
+    return 0 if not core.alarms else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
