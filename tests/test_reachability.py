@@ -223,3 +223,52 @@ def test_a_refused_check_does_not_change_the_verdict_on_the_next_one():
     awkward = line_from_hand(kin, [0.2, 0.0, -0.1], [-0.4, -0.8, -1.2])
     assert_refused(check(kin, awkward, WAIST, checker=checker))
     assert check(kin, small, checker=checker) is None
+
+
+# ------------------------------------------------------------------- solve_pose (PTP targets)
+def test_solve_pose_puts_the_control_point_on_the_target_within_the_limits():
+    from controller.motion.motions import JointMotion
+    from tests.motion_support import DT, make_core
+
+    core = make_core("smartpal5")
+    kin = core.planning_kinematics()
+    start = kin.pose(RightLeft.RIGHT)
+    target = pin.SE3(
+        start.rotation @ pin.exp3(np.array([0.3, -0.2, 0.4])),
+        start.translation + np.array([0.1, 0.1, 0.15]),
+    )
+    motion = CartesianMotion(
+        kin,
+        DT,
+        RightLeft.RIGHT,
+        LinePath(start, target),
+        (0.2, 1.0),
+        (0.5, 2.0),
+        {RedundantAxis.RIGHT_ELBOW: True},
+    )
+    setup = motion.setup()
+    q, reason = ReachabilityChecker(kin).solve_pose(kin, RightLeft.RIGHT, target, setup)
+    assert reason is None
+    box = core.ik.box
+    assert np.all(q >= box.q_min) and np.all(q <= box.q_max)
+    assert np.array_equal(q[setup.frozen], kin.q[setup.frozen])
+    # A joint-space PTP to that configuration ends with the hand on the target.
+    arm = kin.unit_indices(UnitType.RIGHT_ARM)
+    core.start(JointMotion(core.kin, DT, arm, q[arm], box.v_max[arm], box.a_max[arm]))
+    while core.motion is not None:
+        core.cycle()
+    reached = core.kin.pose(RightLeft.RIGHT)
+    assert np.linalg.norm(reached.translation - target.translation) < 2e-4
+    assert np.linalg.norm(pin.log3(reached.rotation.T @ target.rotation)) < math.radians(0.1)
+
+
+def test_solve_pose_out_of_reach_gives_a_reason():
+    kin = kinematics("smartpal5")
+    kin.update(kin.home())
+    start = kin.pose(RightLeft.RIGHT)
+    far = pin.SE3(start.rotation, start.translation + np.array([1.5, 0, 0]))
+    motion = CartesianMotion(
+        kin, 0.002, RightLeft.RIGHT, LinePath(start, far), (0.2, 1.0), (0.5, 2.0), {}
+    )
+    _, reason = ReachabilityChecker(kin).solve_pose(kin, RightLeft.RIGHT, far, motion.setup())
+    assert reason is not None and "not reachable" in reason

@@ -91,6 +91,34 @@ class ReachabilityChecker:
                 )
         return None
 
+    def solve_pose(
+        self,
+        live: Kinematics,
+        side: RightLeft,
+        target: pin.SE3,
+        setup: IKSetup,
+        hold: RightLeft | None = None,
+    ) -> tuple[np.ndarray, str | None]:
+        """Joint configuration putting ``side``'s control point on ``target`` (original frame)
+        from ``live.q`` under ``setup``'s limits, masks and ranges (for PTP-Cartesian moves).
+
+        Returns ``(q, None)``, or ``(closest q, reason)`` when out of reach. The joint path
+        from ``live.q`` to ``q`` is not checked (a PTP move interpolates joints, not poses).
+        """
+        kin = self.kin
+        kin.copy_frames_from(live)
+        q = live.q.copy()
+        kin.update(q)
+        self.rows.configure(kin, setup.allowed, setup.ranges, setup.frozen)
+        held = kin.pose(hold) if hold is not None else None
+        # Approach in steps so the local IK does not fold the arm through a limit.
+        path = LinePath(kin.pose(side), target)
+        for s in path.samples(0.05, math.radians(10))[1:]:
+            q, err = self._solve(q, side, path.at(s), setup.frozen, hold, held)
+            if err is not None:
+                return q, f"the target is not reachable: {err}"
+        return q, None
+
     def conditioning(
         self,
         side: RightLeft,
