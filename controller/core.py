@@ -29,6 +29,7 @@ from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
 from controller.qp.ik import WholeBodyIK
+from controller.qp.solver import DEFAULT_SOLVER
 from controller.robot import Robot
 from hal.interface import HardwareInterface, HardwareState, JointCommand
 
@@ -75,7 +76,7 @@ class MotionCore:
     """Owns the kinematics, the IK and the current motion of one robot on one hardware."""
 
     def __init__(
-        self, robot: Robot, hardware: HardwareInterface, dt: float, solver: str = "proxqp"
+        self, robot: Robot, hardware: HardwareInterface, dt: float, solver: str = DEFAULT_SOLVER
     ):
         self.robot = robot
         self.hw = hardware
@@ -115,8 +116,7 @@ class MotionCore:
 
     def _apply(self, setup: IKSetup) -> None:
         self.ik.tasks = setup.tasks
-        self.ik.box.frozen = setup.frozen
-        self.ik.rows.configure(self.kin, setup.allowed, setup.ranges, setup.frozen)
+        self.ik.configure(setup.frozen, setup.allowed, setup.ranges)
 
     def servo_on(self) -> None:
         """Enable the drives holding the measured position (from servo off, after alarms)."""

@@ -111,6 +111,7 @@ class Kinematics:
         self._q = np.asarray(q, dtype=float)
         pin.computeJointJacobians(self.model, self.data, self._q)
         pin.updateFramePlacements(self.model, self.data)
+        self._oMf = self.data.oMf  # a live view of the placements: each access builds one
 
     @property
     def q(self) -> np.ndarray:
@@ -167,7 +168,8 @@ class Kinematics:
 
     def pose(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> pin.SE3:
         """Control-point pose in the original or the current frame [m]."""
-        return self._frame_of(frame).actInv(self.data.oMf[self._cp_frame[side]])
+        base = self._original if frame == FrameType.ORIGINAL_FRAME else self.body_pose()
+        return base.actInv(self._oMf[self._cp_frame[side]])
 
     def jacobian(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> np.ndarray:
         """``6 x nv`` Jacobian of the control point in the original or the current frame.
@@ -175,12 +177,19 @@ class Kinematics:
         Original frame: d/dt of the pose in that (world-fixed) frame. Current frame: d/dt of the
         pose relative to the moving body frame, so vehicle motion does not show in it.
         """
+        if frame == FrameType.ORIGINAL_FRAME:  # the hot path, inlined
+            jac: np.ndarray = pin.getFrameJacobian(
+                self.model, self.data, self._cp_frame[side], pin.LOCAL_WORLD_ALIGNED
+            )
+            to_original = self._to_original
+            return jac if to_original is None else to_original.dot(jac)
         return self._frame_jacobian(self._cp_frame[side], frame)
 
     def _frame_jacobian(self, fid: int, frame: FrameType) -> np.ndarray:
-        jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+        jac: np.ndarray = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
         if frame == FrameType.ORIGINAL_FRAME:
-            return jac if self._to_original is None else self._to_original @ jac
+            to_original = self._to_original
+            return jac if to_original is None else to_original.dot(jac)
         else:
             # Subtract the body's rigid motion carried to the control point.
             body = self.body_pose()

@@ -115,7 +115,7 @@ def test_axis_whose_joints_are_all_frozen_needs_no_row():
     assert lo[axes.index(RedundantAxis.LEFT_ELBOW)] == -INF
 
 
-def test_range_row_is_linearised_and_never_demands_a_jump_back():
+def test_range_row_brakes_before_its_bounds_and_pulls_back_from_outside():
     kin = kinematics("smartpal5")
     kin.update(kin.home())
     axes = available_axes(kin)
@@ -124,10 +124,32 @@ def test_range_row_is_linearised_and_never_demands_a_jump_back():
     frozen = np.zeros(kin.nv, dtype=bool)
     rows.configure(kin, {}, {RedundantAxis.LUMBAR_RY: (-0.1, 0.2)}, frozen)
     _, lo, hi = rows.rows(kin)
-    assert math.isclose(lo[i], -0.1 / 0.002) and math.isclose(hi[i], 0.2 / 0.002)
-    rows.configure(kin, {}, {RedundantAxis.LUMBAR_RY: (0.3, 0.5)}, frozen)  # now outside, below
+    # Braking distance toward each bound: well below the one-cycle jump (bound − x)/dt.
+    assert -0.1 / 0.002 < lo[i] < 0.0 < hi[i] < 0.2 / 0.002
+    # Half the deceleration of the best joint on the row (both weights are 1).
+    brake = 0.5 * max(rows._a_max[kin.index(n)] for n in ("lumbar_lower", "lumbar_upper"))
+    assert math.isclose(hi[i], brake * (math.sqrt(0.002**2 + 2 * 0.2 / brake) - 0.002))
+    rows.configure(kin, {}, {RedundantAxis.LUMBAR_RY: (0.3, 0.5)}, frozen)  # now outside
     _, lo, hi = rows.rows(kin)
-    assert lo[i] == 0.0 and hi[i] > 0.0
+    assert lo[i] > 0.0 and hi[i] >= lo[i]  # back in, never further out
+
+
+def test_rows_never_ask_for_more_than_the_box_gives():
+    kin = kinematics("smartpal5")
+    kin.update(kin.home())
+    axes = available_axes(kin)
+    rows = AxisRows(kin, axes, 0.002)
+    frozen = np.zeros(kin.nv, dtype=bool)
+    i = axes.index(RedundantAxis.RIGHT_ELBOW)
+    rows.configure(kin, {RedundantAxis.RIGHT_ELBOW: False}, {}, frozen)
+    q = kin.home()
+    q[kin.index("r_arm_j3")] += 0.3  # the held elbow is now far off: big pull-back
+    kin.update(q)
+    lb, ub = -0.001 * np.ones(kin.nv), 0.001 * np.ones(kin.nv)
+    C, lo, hi = rows.rows(kin, lb, ub)
+    reach = np.abs(C[i]) @ ub
+    assert lo[i] == hi[i]
+    assert abs(lo[i]) < reach  # strictly inside what the box can give
 
 
 def test_differential_base_row_forbids_sideways_motion():

@@ -49,8 +49,9 @@ The problem, identical for every library as far as their APIs allow:
   gripper joints (absent from the Pinocchio model) are held still the same way and by its
   posture task, which covers every dof. Every QP keeps all ``nv`` variables (mink's
   ``nv`` counts the gripper joints too).
-* Solvers: imotion's persistent, warm-started ProxQP (``controller.qp.solver``, tolerance
-  1e-9 on v; ``--ours-solver qpsolvers:daqp`` tries another back end). Pink and mink go
+* Solvers: imotion's default back end as the daemon uses it (``controller.qp.solver``:
+  DAQP with a persistent workspace; ``--ours-solver proxqp`` or ``qpsolvers:<name>`` try
+  another). Pink and mink go
   through ``qpsolvers``; every solver of ``--peer-solvers`` that is installed is run, with
   the solvers' default tolerances unless ``--peer-tol`` gives one (as a velocity: Pink and
   mink solve for Δq = v·dt, so the defaults, 1e-5 for ProxQP and 1e-6 for DAQP on Δq, allow
@@ -587,8 +588,8 @@ def main() -> int:
     parser.add_argument("--period", type=float, default=4.0, help="figure-eight period [s]")
     parser.add_argument(
         "--ours-solver",
-        default="proxqp",
-        help="imotion's QP back end: proxqp (default) or qpsolvers:<name>",
+        default="daqp",
+        help="imotion's QP back end: daqp (default, as the daemon), proxqp or qpsolvers:<name>",
     )
     parser.add_argument(
         "--peer-solvers", default="proxqp,daqp", help="qpsolvers back ends for Pink and mink"

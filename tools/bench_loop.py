@@ -118,7 +118,15 @@ def main() -> int:
     parser.add_argument("--rate", type=float, default=1000.0)
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
+    parser.add_argument(
+        "--switch-interval",
+        type=float,
+        default=1e-4,
+        help="sys.setswitchinterval [s]: how long another Python thread may hold the GIL "
+        "(CPython's default 5 ms shows up as late cycles)",
+    )
     args = parser.parse_args()
+    sys.setswitchinterval(args.switch_interval)
 
     robot = load_robot(args.robot)
     dt = 1.0 / args.rate

@@ -119,9 +119,9 @@ class ArcPath:
         if nn < 1e-9 * max(1.0, float(np.linalg.norm(a) * np.linalg.norm(b))):
             raise ValueError("start, via and end points are collinear: no unique arc")
         # Circumcentre of the triangle p0, p1, p2.
-        centre = p0 + (
-            np.dot(a, a) * np.cross(b, normal) + np.dot(b, b) * np.cross(normal, a)
-        ) / (2.0 * nn * nn)
+        centre = p0 + (np.dot(a, a) * np.cross(b, normal) + np.dot(b, b) * np.cross(normal, a)) / (
+            2.0 * nn * nn
+        )
         self.centre = centre
         self.normal = normal / nn
         self.radius = float(np.linalg.norm(p0 - centre))
@@ -159,9 +159,7 @@ class ArcPath:
         out[3:] = self._rotation.omega_world * sd
         return out
 
-    def limits(
-        self, speed: tuple[float, float], accel: tuple[float, float]
-    ) -> tuple[float, float]:
+    def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
         """(ṡ_max, s̈_max); the centripetal acceleration v²/r is kept within the translation
         acceleration limit too."""
         v = min(_ratio(speed[0], self.length), _ratio(speed[1], self.angle))

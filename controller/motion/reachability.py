@@ -174,7 +174,7 @@ class ReachabilityChecker:
             ub = np.minimum(self.q_max - q, MAX_STEP)
             lb[frozen] = ub[frozen] = 0.0
             lb, ub = np.minimum(lb, 0.0), np.maximum(ub, 0.0)  # outside a limit: not worse
-            C, lo, hi = self.rows.rows(kin)
+            C, lo, hi = self.rows.rows(kin, lb, ub)
             dq = self.solver.solve(H, g, C, lo, hi, lb, ub)
             if dq is None:
                 why = self._describe(q, pos, ang, frozen)

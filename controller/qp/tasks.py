@@ -37,10 +37,23 @@ class Task(abc.ABC):
     weight: np.ndarray
     #: 1: control points; 2: redundant axes (null space of level 1); 0: regularisation, in both.
     level: int = 1
+    #: True when J never changes: the IK then writes it into its buffers only once.
+    constant_jacobian: bool = False
 
     @abc.abstractmethod
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
         """``(J, e)`` at the state of the last ``kin.update``."""
+
+    def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
+        """:meth:`compute` written into ``jac`` (m x nv; None: J is already there, see
+        :attr:`constant_jacobian`) and ``rate`` (m), the IK's stacked buffers. Override where
+        writing in place saves work."""
+        J, e = self.compute(kin)
+        if len(e) != len(rate):
+            raise ValueError(f"{type(self).__name__} has {len(e)} rows, not {len(rate)}")
+        rate[...] = e
+        if jac is not None:
+            jac[...] = J
 
 
 class ControlPointTask(Task):
@@ -64,14 +77,29 @@ class ControlPointTask(Task):
 
     def error(self, kin: Kinematics) -> np.ndarray:
         """Position error [m] and rotation error [rad] (target − measured, original axes)."""
-        pose = kin.pose(self.side)
         out = np.empty(6)
-        out[:3] = self.target.translation - pose.translation
-        out[3:] = pin.log3(self.target.rotation @ pose.rotation.T)
+        _pose_error(self.target, kin.pose(self.side), out)
         return out
 
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        return kin.jacobian(self.side), self.twist + self.gain * self.error(kin)
+        rate = self.error(kin)
+        rate *= self.gain
+        rate += self.twist
+        return kin.jacobian(self.side), rate
+
+    def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
+        if jac is not None:
+            jac[...] = kin.jacobian(self.side)
+        _pose_error(self.target, kin.pose(self.side), rate)
+        rate *= self.gain
+        rate += self.twist
+
+
+def _pose_error(target: pin.SE3, pose: pin.SE3, out: np.ndarray) -> None:
+    """``out`` := position and rotation error (target − pose), in the axes of the frame both
+    poses are given in."""
+    np.subtract(target.translation, pose.translation, out=out[:3])
+    out[3:] = pin.log3((target * pose.inverse()).rotation)
 
 
 class AxisTask(Task):
@@ -119,6 +147,8 @@ class PostureTask(Task):
     tracking task (PTP and unit moves).
     """
 
+    constant_jacobian = True  # rows of the identity, made for ``joints`` once
+
     def __init__(
         self,
         reference: np.ndarray,
@@ -134,10 +164,30 @@ class PostureTask(Task):
         self.gain = gain
         self.weight = np.full(len(self.joints), weight)
         self._jac: np.ndarray | None = None
+        self._every = False
+
+    def _jacobian(self, nv: int) -> np.ndarray:
+        if self._jac is None or self._jac.shape[1] != nv:
+            self._jac = np.zeros((len(self.joints), nv))
+            self._jac[np.arange(len(self.joints)), self.joints] = 1.0
+            #: ``joints`` is every joint in order: no indexing needed.
+            self._every = np.array_equal(self.joints, np.arange(nv))
+        return self._jac
 
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        if self._jac is None or self._jac.shape[1] != kin.nv:
-            self._jac = np.zeros((len(self.joints), kin.nv))
-            self._jac[np.arange(len(self.joints)), self.joints] = 1.0
         err = self.reference[self.joints] - kin.q[self.joints]
-        return self._jac, self.rate + self.gain * err
+        return self._jacobian(kin.nv), self.rate + self.gain * err
+
+    def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
+        if jac is not None or self._jac is None:
+            J = self._jacobian(kin.nv)
+            if jac is not None:
+                jac[...] = J
+        q, reference = kin.q, self.reference
+        if self._every and len(reference) == len(q):
+            np.subtract(reference, q, out=rate)
+        else:
+            np.subtract(reference[self.joints], q[self.joints], out=rate)
+        if self.gain != 1.0:  # x·1 = x exactly: skip the product
+            rate *= self.gain
+        rate += self.rate
