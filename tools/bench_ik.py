@@ -98,7 +98,9 @@ from pink.limits import VelocityLimit as PinkVelocityLimit
 from controller.enums import RightLeft, UnitType
 from controller.kinematics import Kinematics
 from controller.qp.ik import DAMPING, WholeBodyIK
+from controller.qp.solver import DEFAULT_SOLVER
 from controller.qp.tasks import (
+    DEFAULT_GAIN,
     POSTURE_WEIGHT,
     ROTATION_SCALE,
     ControlPointTask,
@@ -244,8 +246,18 @@ def kin_limits(kin: Kinematics) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 class ImotionRunner(Runner):
-    def __init__(self, robot: Robot, targets: Targets, dt: float, solver: str = "proxqp"):
-        self.name = f"imotion ({solver.removeprefix('qpsolvers:')})"
+    def __init__(
+        self,
+        robot: Robot,
+        targets: Targets,
+        dt: float,
+        solver: str = DEFAULT_SOLVER,
+        gain: float = DEFAULT_GAIN,
+    ):
+        label = solver.removeprefix("qpsolvers:")
+        if gain != DEFAULT_GAIN:
+            label += f", gain {gain:g}/s"
+        self.name = f"imotion ({label})"
         self.dt = dt
         self.targets = targets
         self.kin = kin = Kinematics(robot)
@@ -253,7 +265,9 @@ class ImotionRunner(Runner):
         ik.box.frozen[:] = frozen_mask(kin)
         ik.rows.configure(kin, {}, {}, ik.box.frozen)
         home = kin.home()
-        self.cp_tasks = [ControlPointTask(s, targets.original[0][s]) for s in targets.sides]
+        self.cp_tasks = [
+            ControlPointTask(s, targets.original[0][s], gain=gain) for s in targets.sides
+        ]
         posture = PostureTask(home, np.arange(kin.nv), gain=POSTURE_GAIN, weight=POSTURE_WEIGHT)
         ik.tasks = [*self.cp_tasks, posture]
         self.q = home.copy()
@@ -468,6 +482,10 @@ class Result:
     def p99_us(self) -> float:
         return float(np.percentile(self.times_us, 99))
 
+    @property
+    def pos_max_mm(self) -> float:
+        return float(self.pos_err.max() * 1e3)
+
     def summary(self) -> dict[str, float | int]:
         return {
             "median_us": round(self.median_us, 1),
@@ -551,7 +569,7 @@ def print_table(robot: Robot, kin: Kinematics, args: argparse.Namespace, results
         f"period {args.period:g} s"
     )
     head = (
-        f"{'library':<18}{'median µs':>10}{'p99 µs':>9}{'pos max':>10}{'pos rms':>10}"
+        f"{'library':<28}{'median µs':>10}{'p99 µs':>9}{'pos max':>10}{'pos rms':>10}"
         f"{'rot max':>10}{'rot rms':>10}{'q viol':>8}{'v viol':>8}{'fail':>6}"
     )
     print(head)
@@ -560,7 +578,7 @@ def print_table(robot: Robot, kin: Kinematics, args: argparse.Namespace, results
     for r in results:
         s = r.summary()
         print(
-            f"{r.name:<18}{s['median_us']:>10.1f}{s['p99_us']:>9.1f}"
+            f"{r.name:<28}{s['median_us']:>10.1f}{s['p99_us']:>9.1f}"
             f"{s['pos_max_mm']:>10.4f}{s['pos_rms_mm']:>10.4f}"
             f"{s['rot_max_deg']:>10.4f}{s['rot_rms_deg']:>10.4f}"
             f"{s['q_viol']:>8d}{s['v_viol']:>8d}{s['failures']:>6d}"
@@ -621,7 +639,9 @@ def main() -> int:
         parser.error(f"none of {args.peer_solvers} is installed ({qpsolvers.available_solvers})")
 
     factories: list[Callable[[], Runner]] = [
-        partial(ImotionRunner, robot, targets, dt, args.ours_solver)
+        partial(ImotionRunner, robot, targets, dt, args.ours_solver),
+        # The peers' own setting: dead-beat feedback (gain 1/dt), for equal-gain tracking.
+        partial(ImotionRunner, robot, targets, dt, args.ours_solver, 1.0 / dt),
     ]
     factories += [partial(PinkRunner, robot, targets, dt, s, args.peer_tol) for s in solvers]
     factories += [partial(MinkRunner, robot, targets, dt, s, args.peer_tol) for s in solvers]
@@ -630,7 +650,7 @@ def main() -> int:
     if args.profile:
         profile_imotion(robot, targets, dt, cycles, 25, args.ours_solver)
 
-    ours = results[0]
+    ours, ours_deadbeat = results[0], results[1]
     pink_best = fastest([r for r in results if r.name.startswith("pink")])
     mink_best = fastest([r for r in results if r.name.startswith("mink")])
     out: dict[str, Any] = {
@@ -644,6 +664,10 @@ def main() -> int:
         "ours_p99_us": round(ours.p99_us, 1),
         "pink_p99_us": round(pink_best.p99_us, 1),
         "mink_p99_us": round(mink_best.p99_us, 1),
+        "ours_pos_max_mm": round(ours.pos_max_mm, 5),
+        "ours_deadbeat_us": round(ours_deadbeat.median_us, 1),
+        "ours_deadbeat_pos_max_mm": round(ours_deadbeat.pos_max_mm, 5),
+        "peer_pos_max_mm": round(min(pink_best.pos_max_mm, mink_best.pos_max_mm), 5),
         "rate_hz": args.rate,
         "steps": args.steps,
         "runs": {r.name: r.summary() for r in results},
