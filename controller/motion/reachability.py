@@ -68,12 +68,7 @@ class ReachabilityChecker:
         hold: RightLeft | None = None,
     ) -> str | None:
         """None when every sample of ``path`` is reachable from ``live.q``; else why not."""
-        kin = self.kin
-        kin.copy_frames_from(live)
-        q = live.q.copy()
-        kin.update(q)
-        self.rows.configure(kin, setup.allowed, setup.ranges, setup.frozen)
-        held = kin.pose(hold) if hold is not None else None
+        q, held = self._start(live, setup, hold)
         samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
         for s in samples[1:]:
@@ -105,19 +100,25 @@ class ReachabilityChecker:
         Returns ``(q, None)``, or ``(closest q, reason)`` when out of reach. The joint path
         from ``live.q`` to ``q`` is not checked (a PTP move interpolates joints, not poses).
         """
-        kin = self.kin
-        kin.copy_frames_from(live)
-        q = live.q.copy()
-        kin.update(q)
-        self.rows.configure(kin, setup.allowed, setup.ranges, setup.frozen)
-        held = kin.pose(hold) if hold is not None else None
+        q, held = self._start(live, setup, hold)
         # Approach in steps so the local IK does not fold the arm through a limit.
-        path = LinePath(kin.pose(side), target)
+        path = LinePath(self.kin.pose(side), target)
         for s in path.samples(0.05, math.radians(10))[1:]:
             q, err = self._solve(q, side, path.at(s), setup.frozen, hold, held)
             if err is not None:
                 return q, f"the target is not reachable: {err}"
         return q, None
+
+    def _start(
+        self, live: Kinematics, setup: IKSetup, hold: RightLeft | None
+    ) -> tuple[np.ndarray, pin.SE3 | None]:
+        """Planning copy at ``live``'s state under ``setup``; the held arm's pose, if any."""
+        kin = self.kin
+        kin.copy_frames_from(live)
+        q = live.q.copy()
+        kin.update(q)
+        self.rows.configure(kin, setup.allowed, setup.ranges, setup.frozen)
+        return q, (kin.pose(hold) if hold is not None else None)
 
     def conditioning(
         self,
