@@ -28,7 +28,7 @@ from controller.kinematics import Kinematics
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
-from controller.qp.ik import WholeBodyIK
+from controller.qp.ik import IKResult, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
 from controller.robot import Robot
 from hal.interface import HardwareInterface, HardwareState, JointCommand
@@ -288,11 +288,14 @@ class MotionCore:
             if self.motion is not None:
                 try:
                     self.motion.advance()
-                except RuntimeError as exc:
+                except Exception as exc:  # never let a motion take the loop down
                     self.raise_alarm(AlarmCode.TRAJECTORY_FAILURE, "motion", str(exc))
                     self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
                     return
-            result = self.ik.solve(self.q_cmd, self.v_cmd)
+            try:
+                result = self.ik.solve(self.q_cmd, self.v_cmd)
+            except Exception as exc:  # a solver or numerical error is a failed solve
+                result = IKResult(np.zeros(self.kin.nv), False, f"IK raised: {exc!r}")
             if not result.ok:
                 self.raise_alarm(AlarmCode.QP_FAILURE, "qp", result.message)
                 self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))

@@ -118,12 +118,26 @@ def test_time_law_failure_raises_an_alarm():
     core.start(motion)
 
     def broken() -> None:
-        raise RuntimeError("Ruckig failed")
+        raise ValueError("a bug in a motion")  # any exception, not only RuntimeError
 
     motion.advance = broken  # type: ignore[method-assign]
     core.cycle()
     assert core.state == CoreState.ALARM
     assert core.alarms[-1].code == AlarmCode.TRAJECTORY_FAILURE
+
+
+def test_an_exception_in_the_ik_is_a_qp_failure(monkeypatch: pytest.MonkeyPatch):
+    core = make_core("pa10")
+    core.start(arm_move(core))
+
+    def explode(q: np.ndarray, v: np.ndarray) -> IKResult:
+        raise FloatingPointError("overflow")
+
+    monkeypatch.setattr(core.ik, "solve", explode)
+    core.cycle()
+    assert core.state == CoreState.ALARM
+    assert core.alarms[-1].code == AlarmCode.QP_FAILURE
+    assert "overflow" in core.alarms[-1].description
 
 
 def test_gripper_moves_to_a_ratio():

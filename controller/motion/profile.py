@@ -71,9 +71,7 @@ class PathProfile:
         if self.state in (ProfileState.PAUSED, ProfileState.DONE):
             self.sd = self.sdd = 0.0
             return
-        result = self._otg.update(self._in, self._out)
-        if result not in (Result.Working, Result.Finished):
-            raise RuntimeError(f"Ruckig failed on the path parameter: {result}")
+        result = self._update()
         self.s = float(self._out.new_position[0])
         self.sd = float(self._out.new_velocity[0])
         self.sdd = float(self._out.new_acceleration[0])
@@ -87,6 +85,25 @@ class PathProfile:
                 self.state = ProfileState.DONE
                 self.s = 1.0
             self.sd = self.sdd = 0.0
+
+    def _update(self) -> Result:
+        """One Ruckig update. Ruckig 0.19 raises on a few exact limit values (e.g. ṡ 49.99…96,
+        s̈ 199.99…8 fail where 50 and 200 work): retry once with limits 1e-6 lower. Any other
+        failure is a RuntimeError (the core turns it into a time-law alarm)."""
+        for attempt in range(2):
+            try:
+                result = self._otg.update(self._in, self._out)
+            except Exception as exc:  # RuckigError is not a RuntimeError
+                if attempt:
+                    raise RuntimeError(f"Ruckig failed on the path parameter: {exc}") from exc
+                self._in.max_velocity = [self._in.max_velocity[0] * (1 - 1e-6)]
+                self._in.max_acceleration = [self._in.max_acceleration[0] * (1 - 1e-6)]
+                self._in.max_jerk = [self._in.max_jerk[0] * (1 - 1e-6)]
+                continue
+            if result not in (Result.Working, Result.Finished):
+                raise RuntimeError(f"Ruckig failed on the path parameter: {result}")
+            return result
+        raise AssertionError("unreachable")
 
     def _decelerate(self) -> None:
         self._in.control_interface = ControlInterface.Velocity

@@ -29,6 +29,7 @@ from controller.motion.motions import IKSetup
 from controller.motion.paths import ArcPath, LinePath
 from controller.qp.limits import AxisRows
 from controller.qp.solver import ProxQPSolver
+from controller.qp.tasks import pose_error
 from controller.redundant_axes import RedundantAxis, available_axes, axis_jacobian
 
 #: Accepted residual at every sample: position [m], orientation [rad].
@@ -159,10 +160,10 @@ class ReachabilityChecker:
         for _ in range(MAX_ITER):
             kin.update(q)
             jacs = [kin.jacobian(side)]
-            errs = [self._error(kin.pose(side), target)]
+            errs = [pose_error(target, kin.pose(side))]
             if hold is not None and held is not None:
                 jacs.append(kin.jacobian(hold))
-                errs.append(self._error(kin.pose(hold), held))
+                errs.append(pose_error(held, kin.pose(hold)))
             err = np.concatenate(errs)
             pos = max(float(np.linalg.norm(e[:3])) for e in errs)
             ang = max(float(np.linalg.norm(e[3:])) for e in errs)
@@ -184,13 +185,6 @@ class ReachabilityChecker:
                 break  # stuck
             q = q + np.clip(dq, lb, ub)
         return q, self._describe(q, pos, ang, frozen)
-
-    @staticmethod
-    def _error(pose: pin.SE3, target: pin.SE3) -> np.ndarray:
-        out = np.empty(6)
-        out[:3] = target.translation - pose.translation
-        out[3:] = pin.log3(target.rotation @ pose.rotation.T)
-        return out
 
     def _describe(self, q: np.ndarray, pos: float, ang: float, frozen: np.ndarray) -> str:
         at_limit = [

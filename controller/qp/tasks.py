@@ -78,7 +78,7 @@ class ControlPointTask(Task):
     def error(self, kin: Kinematics) -> np.ndarray:
         """Position error [m] and rotation error [rad] (target − measured, original axes)."""
         out = np.empty(6)
-        _pose_error(self.target, kin.pose(self.side), out)
+        pose_error(self.target, kin.pose(self.side), out)
         return out
 
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
@@ -90,16 +90,19 @@ class ControlPointTask(Task):
     def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
         if jac is not None:
             jac[...] = kin.jacobian(self.side)
-        _pose_error(self.target, kin.pose(self.side), rate)
+        pose_error(self.target, kin.pose(self.side), rate)
         rate *= self.gain
         rate += self.twist
 
 
-def _pose_error(target: pin.SE3, pose: pin.SE3, out: np.ndarray) -> None:
-    """``out`` := position and rotation error (target − pose), in the axes of the frame both
-    poses are given in."""
+def pose_error(target: pin.SE3, pose: pin.SE3, out: np.ndarray | None = None) -> np.ndarray:
+    """Position [m] and rotation [rad] error (target − pose), in the axes of the frame both
+    poses are given in; written into ``out`` when given."""
+    if out is None:
+        out = np.empty(6)
     np.subtract(target.translation, pose.translation, out=out[:3])
     out[3:] = pin.log3((target * pose.inverse()).rotation)
+    return out
 
 
 class AxisTask(Task):
