@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from controller.kinematics import Kinematics
-from controller.qp.limits import AxisRows, JointBox
+from controller.qp.limits import INF, AxisRows, JointBox
 from controller.qp.solver import DEFAULT_SOLVER, FEASIBILITY_TOL, QPSolver, make_solver
 from controller.qp.tasks import Task
 from controller.redundant_axes import RedundantAxis, available_axes
@@ -289,10 +289,27 @@ class WholeBodyIK:
             plan.fill(kin)
         H, g = plan.level1.cost(layout, moving)
         x = self.solver.solve(H, g, C, lo, hi, lb, ub)
+        message = ""
+        if x is None and len(lo):
+            # Held axes and ranges against the box or each other (a held vehicle y against a
+            # differential base's no-sideways row): relax them to "no further drift / no
+            # further out" (bands that include 0) and try once more.
+            lo, hi = np.minimum(lo, 0.0), np.maximum(hi, 0.0)
+            x = self.solver.solve(H, g, C, lo, hi, lb, ub)
+            message = "held axes and ranges relaxed to 'no further' this cycle"
+            if x is None:
+                # Nearly parallel equalities (held vehicle y and the no-sideways row at
+                # heading ~0) can defeat the solver although v = 0 is feasible: keep only
+                # the differential drive's row, which is physics, for this cycle.
+                drive = layout.rows == self.rows.m - 1 if self.rows.differential else None
+                keep = np.zeros(len(lo), dtype=bool) if drive is None else drive
+                lo = np.where(keep, lo, -INF)
+                hi = np.where(keep, hi, INF)
+                x = self.solver.solve(H, g, C, lo, hi, lb, ub)
+                message = "held axes and ranges not enforced this cycle (conflicting rows)"
         if x is None:
             return IKResult(np.zeros(kin.nv), False, "QP infeasible or not solved")
         iterations = self.solver.iterations
-        message = ""
         if plan.level2 is not None:
             p = min(plan.m1, self.n_eq)
             A = np.ascontiguousarray(plan.level1.jac[:p, layout.free])

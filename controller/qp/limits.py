@@ -17,7 +17,8 @@ the bound closest to "stop as fast as the acceleration limit allows" wins.
 Linear rows ``l ≤ C v ≤ u``, one per redundant axis, plus the differential-drive row:
   * masked axis (not selected for Cartesian moves): held at its value when the motion
     started, ``J_axis v = 0.5·(x_hold − x)/dt`` exactly (the feedback removes the
-    second-order drift a bare ``J_axis v = 0`` would accumulate);
+    second-order drift a bare ``J_axis v = 0`` would accumulate); a held elbow rests while the
+    arm is within 1 cm of full stretch, where the angle is undefined;
   * RedundantLimit range [lo, hi]: the axis rate toward a bound is limited by a braking
     distance, as for joints, at half the deceleration its best joint can give it
     (``a_axis = ½·max_j |J_axis,j|·a_max,j``); linearised at the measured value ``x``;
@@ -41,6 +42,9 @@ INF = 1e20
 #: brake in every joint at once without the control point drifting: the rest of a_max is the
 #: headroom the other joints need for that.
 BRAKING_SHARE = 0.5
+#: A held elbow angle is not enforced while the elbow is closer than this [m] to the
+#: shoulder-wrist line: the angle is (nearly) undefined there and its Jacobian explodes.
+HOLD_MIN_ELBOW_OFFSET = 0.01
 #: Fraction of a masked axis's drift from its held value removed per cycle.
 HOLD_FRACTION = 0.5
 
@@ -227,6 +231,9 @@ class AxisRows:
         for i, hold in self._frozen_rows:
             axis = self.axes[i]
             C[i] = axis_jacobian(kin, axis)
+            if axis.is_elbow and kin.elbow_offset(axis.side) < HOLD_MIN_ELBOW_OFFSET:
+                lo[i], hi[i] = -INF, INF  # nearly stretched: no elbow angle to hold
+                continue
             err = hold - axis_value(kin, axis)
             if axis.is_elbow:
                 err = math.remainder(err, math.tau)
