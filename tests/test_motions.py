@@ -151,8 +151,6 @@ def cp_hold_targets(core: MotionCore) -> dict[RedundantAxis, float]:
         RedundantAxis.VEHICLE_Y: 0.04,
         RedundantAxis.VEHICLE_THETA: math.radians(-4),
     }
-    if core.ik.rows.differential:  # straight along the heading: no sideways motion needed
-        steps = {RedundantAxis.VEHICLE_X: -0.08}
     return {a: axis_value(kin, a) + d for a, d in steps.items() if a in core.ik.axes}
 
 
@@ -183,17 +181,22 @@ def test_cp_hold_keeps_the_hands_while_the_redundant_axes_move(robot_id, held):
         ]
     )
     motion = CPHoldMotion(kin, DT, held, targets, speed, 2 * speed)
-    worst = []
+    worst, lateral = [], [0.0]
+    vx, vy, vt = kin.unit_indices(UnitType.VEHICLE) if kin.has_vehicle else (0, 0, 0)
 
     def check(c: MotionCore) -> None:
         worst.append(
             max(np.linalg.norm(c.kin.pose(s).translation - start[s].translation) for s in held)
         )
+        if c.ik.rows.differential:
+            th = c.q[vt]  # the measured heading the solve used
+            lateral.append(abs(-math.sin(th) * c.v_cmd[vx] + math.cos(th) * c.v_cmd[vy]))
 
     run_motion(core, motion, check)
     for _ in range(100):
         core.cycle()
     assert max(worst) <= 0.05e-3, f"hand moved {max(worst) * 1e3:.4f} mm"
+    assert max(lateral) < 1e-9  # a differential base never moves sideways
     for axis, goal in targets.items():
         assert abs(axis_value(kin, axis) - goal) < 1e-5, axis
 
@@ -252,7 +255,7 @@ def test_differential_base_never_moves_sideways():
     lateral = []
 
     def check(c: MotionCore) -> None:
-        th = c.q_cmd[vt]
+        th = c.q[vt]  # the measured heading the solve used
         lateral.append(abs(-math.sin(th) * c.v_cmd[vx] + math.cos(th) * c.v_cmd[vy]))
 
     target = np.array([-0.3, 0.4, math.radians(45)])

@@ -237,24 +237,62 @@ class CartesianMotion(Motion):
             self.elbow.set_target(e0, (e1 - e0) / dt)
 
 
-class CPHoldMotion(Motion):
-    """Redundant axes to ``targets`` (SI) with the control points of ``held`` fixed.
+VEHICLE_AXES = (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y, RedundantAxis.VEHICLE_THETA)
 
-    ``speed``/``accel`` per axis in ``targets`` order. All redundant axes may move; the
-    joints of arms neither held nor carrying a moved elbow are frozen.
+
+def is_differential(kin: Kinematics) -> bool:
+    vehicle = kin.robot.profile.vehicle
+    return vehicle is not None and vehicle.type == "differential"
+
+
+def drivable_waypoints(
+    kin: Kinematics, axes: list[RedundantAxis], start: np.ndarray, goal: np.ndarray
+) -> list[np.ndarray]:
+    """Waypoints from ``start`` to ``goal`` (values of ``axes``) the base can drive.
+
+    Omnidirectional (or no vehicle motion): one straight segment. Differential drive, when
+    x/y change: turn toward the goal, drive straight, turn to the final heading (backwards
+    when the goal is behind, which turns less); the other axes advance a third per segment.
+    ``axes`` must then hold vehicleX, vehicleY and vehicleTheta.
+    """
+    if not is_differential(kin) or not set(VEHICLE_AXES[:2]) & set(axes):
+        return [start, goal]
+    ix, iy, it = (axes.index(a) for a in VEHICLE_AXES)
+    dxy = goal[[ix, iy]] - start[[ix, iy]]
+    if float(np.linalg.norm(dxy)) < 1e-6:
+        return [start, goal]
+    heading = start[it] + math.remainder(math.atan2(dxy[1], dxy[0]) - start[it], math.tau)
+    if abs(heading - start[it]) > math.pi / 2:
+        heading -= math.copysign(math.pi, heading - start[it])
+    turn = start + (goal - start) / 3
+    turn[[ix, iy, it]] = start[ix], start[iy], heading
+    drive = start + 2 * (goal - start) / 3
+    drive[[ix, iy, it]] = goal[ix], goal[iy], heading
+    return [start, turn, drive, goal]
+
+
+class AxisPathMotion(Motion):
+    """Redundant axes along straight segments through waypoints (see drivable_waypoints).
+
+    ``speed``/``accel`` per axis; vehicleX and vehicleY carry the translation limits, taken
+    on the Euclidean (x, y) distance. Each segment has its own time law; stop and pause act
+    on the current one.
     """
 
     def __init__(
         self,
         kin: Kinematics,
         dt: float,
-        held: tuple[RightLeft, ...],
         targets: dict[RedundantAxis, float],
         speed: np.ndarray,
         accel: np.ndarray,
+        level: int,
     ):
         self.kin = kin
+        self.dt = dt
         self.axes = list(targets)
+        self.speed = np.asarray(speed, dtype=float)
+        self.accel = np.asarray(accel, dtype=float)
         start = np.array([axis_value(kin, a) for a in self.axes])
         goal = np.array(
             [
@@ -264,93 +302,31 @@ class CPHoldMotion(Motion):
                 for i, a in enumerate(self.axes)
             ]
         )
-        self.path = VectorPath(start, goal)
-        v, a = self.path.limits(speed, accel)
-        if self.path.is_empty:
-            v, a = 1.0, 1.0
-        self.profile = PathProfile(dt, v, a)
-        self.hold = [ControlPointTask(side, kin.pose(side)) for side in held]
-        self.tasks = [AxisTask(axis, float(start[i])) for i, axis in enumerate(self.axes)]
-
-    def setup(self) -> IKSetup:
-        kin = self.kin
-        frozen = np.zeros(kin.nv, dtype=bool)
-        moving = {t.side for t in self.hold} | {a.side for a in self.axes if a.is_elbow}
-        for side in kin.arms:
-            if side not in moving:
-                frozen[arm_joints(kin, side)] = True
-        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen)
-
-    def apply(self, s0: float, s1: float, dt: float) -> None:
-        follow_vector(self.tasks, self.path, s0, s1, dt)
-
-
-class VehicleMotion(Motion):
-    """Vehicle unit move to ``target`` = (x [m], y [m], θ [rad]) in the original frame.
-
-    Omnidirectional: one straight line in (x, y) with θ turning along, limited by the
-    Euclidean translation speed/accel and the rotation speed/accel. Differential drive: turn
-    toward the goal, drive straight, turn to the final heading (each a straight segment of
-    its own, so the base never moves sideways).
-    """
-
-    def __init__(
-        self,
-        kin: Kinematics,
-        dt: float,
-        target: np.ndarray,
-        speed: tuple[float, float],
-        accel: tuple[float, float],
-    ):
-        self.kin = kin
-        self.dt = dt
-        self.speed, self.accel = speed, accel
-        start = kin.vehicle_pose()
-        differential = kin.robot.profile.vehicle is not None and (
-            kin.robot.profile.vehicle.type == "differential"
-        )
-        self.waypoints = [start]
-        goal = np.asarray(target, dtype=float)
-        dxy = goal[:2] - start[:2]
-        if differential and float(np.linalg.norm(dxy)) > 1e-6:
-            heading = math.atan2(dxy[1], dxy[0])
-            heading = start[2] + math.remainder(heading - start[2], math.tau)
-            # Drive backwards when the goal is behind: less turning.
-            if abs(heading - start[2]) > math.pi / 2:
-                heading -= math.copysign(math.pi, heading - start[2])
-            self.waypoints.append(np.array([start[0], start[1], heading]))
-            self.waypoints.append(np.array([goal[0], goal[1], heading]))
-        self.waypoints.append(goal)
-        self._segment = 0
+        self.waypoints = drivable_waypoints(kin, self.axes, start, goal)
         self.tasks = [
-            AxisTask(a, float(start[i]), weight=1.0, level=1)
-            for i, a in enumerate(
-                (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y, RedundantAxis.VEHICLE_THETA)
-            )
+            AxisTask(axis, float(start[i]), weight=1.0, level=level)
+            for i, axis in enumerate(self.axes)
         ]
+        self._segment = 0
         self._start_segment()
 
     def _start_segment(self) -> None:
         a, b = self.waypoints[self._segment], self.waypoints[self._segment + 1]
         self.path = VectorPath(a, b)
-        lin = float(np.linalg.norm(b[:2] - a[:2]))
-        rot = abs(float(b[2] - a[2]))
-        v = min(
-            self.speed[0] / lin if lin > 1e-12 else math.inf,
-            self.speed[1] / rot if rot > 1e-12 else math.inf,
-        )
-        acc = min(
-            self.accel[0] / lin if lin > 1e-12 else math.inf,
-            self.accel[1] / rot if rot > 1e-12 else math.inf,
-        )
+        v = acc = math.inf
+        xy = [i for i, axis in enumerate(self.axes) if axis in VEHICLE_AXES[:2]]
+        if xy:
+            lin = float(np.linalg.norm(b[xy] - a[xy]))
+            if lin > 1e-12:
+                v, acc = self.speed[xy[0]] / lin, self.accel[xy[0]] / lin
+        for i in range(len(self.axes)):
+            extent = abs(float(b[i] - a[i]))
+            if i not in xy and extent > 1e-12:
+                v = min(v, self.speed[i] / extent)
+                acc = min(acc, self.accel[i] / extent)
         if not math.isfinite(v):
             v, acc = 1.0, 1.0
         self.profile = PathProfile(self.dt, v, acc)
-
-    def setup(self) -> IKSetup:
-        frozen = np.ones(self.kin.nv, dtype=bool)
-        frozen[self.kin.unit_indices(UnitType.VEHICLE)] = False
-        return IKSetup([*self.tasks, _posture(self.kin)], frozen)
 
     def apply(self, s0: float, s1: float, dt: float) -> None:
         follow_vector(self.tasks, self.path, s0, s1, dt)
@@ -366,3 +342,83 @@ class VehicleMotion(Motion):
     def finished(self) -> bool:
         last = self._segment == len(self.waypoints) - 2
         return self.profile.finished and (last or self.profile.stopped)
+
+
+class CPHoldMotion(AxisPathMotion):
+    """Redundant axes to ``targets`` (SI) with the control points of ``held`` fixed.
+
+    ``speed``/``accel`` per axis in ``targets`` order (vehicleX/Y: the translation limits).
+    All redundant axes may move; the joints of arms neither held nor carrying a moved elbow
+    are frozen. On a differential base the vehicle turns, drives and turns (vehicleTheta is
+    added, held at its value, when the targets do not name it).
+    """
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        dt: float,
+        held: tuple[RightLeft, ...],
+        targets: dict[RedundantAxis, float],
+        speed: np.ndarray,
+        accel: np.ndarray,
+    ):
+        targets = dict(targets)
+        spd, acc = [float(x) for x in speed], [float(x) for x in accel]
+        if is_differential(kin) and set(VEHICLE_AXES[:2]) & set(targets):
+            # The turn-drive-turn plan needs x, y and θ: add the missing ones, held.
+            k = next(k for k, a in enumerate(targets) if a in VEHICLE_AXES[:2])
+            theta = kin.robot.joints[kin.robot.unit_joints("VEHICLE")[2]]
+            limits = {
+                VEHICLE_AXES[0]: (spd[k], acc[k]),
+                VEHICLE_AXES[1]: (spd[k], acc[k]),
+                VEHICLE_AXES[2]: (0.5 * theta.velocity, 0.5 * theta.acceleration),
+            }
+            for axis, (v, a) in limits.items():
+                if axis not in targets:
+                    targets[axis] = axis_value(kin, axis)
+                    spd.append(v)
+                    acc.append(a)
+        super().__init__(kin, dt, targets, np.array(spd), np.array(acc), level=2)
+        self.hold = [ControlPointTask(side, kin.pose(side)) for side in held]
+
+    def setup(self) -> IKSetup:
+        kin = self.kin
+        frozen = np.zeros(kin.nv, dtype=bool)
+        moving = {t.side for t in self.hold} | {a.side for a in self.axes if a.is_elbow}
+        for side in kin.arms:
+            if side not in moving:
+                frozen[arm_joints(kin, side)] = True
+        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen)
+
+
+class VehicleMotion(AxisPathMotion):
+    """Vehicle unit move to ``target`` = (x [m], y [m], θ [rad]) in the original frame.
+
+    ``speed``/``accel``: (translation, rotation). Omnidirectional: one straight line in
+    (x, y) with θ turning along, translation limited on the Euclidean distance. Differential
+    drive: turn toward the goal, drive straight, turn to the final heading, so the base never
+    moves sideways.
+    """
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        dt: float,
+        target: np.ndarray,
+        speed: tuple[float, float],
+        accel: tuple[float, float],
+    ):
+        targets = {a: float(target[i]) for i, a in enumerate(VEHICLE_AXES)}
+        super().__init__(
+            kin,
+            dt,
+            targets,
+            np.array([speed[0], speed[0], speed[1]]),
+            np.array([accel[0], accel[0], accel[1]]),
+            level=1,
+        )
+
+    def setup(self) -> IKSetup:
+        frozen = np.ones(self.kin.nv, dtype=bool)
+        frozen[self.kin.unit_indices(UnitType.VEHICLE)] = False
+        return IKSetup([*self.tasks, _posture(self.kin)], frozen)
