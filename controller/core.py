@@ -152,12 +152,6 @@ class MotionCore:
         self.kin.update(self.q)
         self._hold()
 
-    def update_measured(self) -> None:
-        """Read the hardware and update the kinematics (for queries while idle/servo off)."""
-        with self._lock:
-            self.q = self.hw.read().position[self._hw_index].copy()
-            self.kin.update(self.q)
-
     def planning_kinematics(self) -> Kinematics:
         """A copy of the kinematics at the current measured state (offsets and original frame
         included), for building and checking motions outside the control thread. One copy is

@@ -58,10 +58,6 @@ class RedundantAxis(enum.Enum):
     def vehicle_index(self) -> int:
         return ("vehicleX", "vehicleY", "vehicleTheta").index(self.value)
 
-    @property
-    def is_angle(self) -> bool:
-        return self not in (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y)
-
 
 def elbow_axis(side: RightLeft) -> RedundantAxis:
     return RedundantAxis.RIGHT_ELBOW if side == RightLeft.RIGHT else RedundantAxis.LEFT_ELBOW
