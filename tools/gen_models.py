@@ -16,6 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from config import robot_ids
 from controller.model_export import export_mjcf, export_urdf
 from controller.robot import load_robot
+from controller.yaml_source import ConfigError
 
 
 def generated_files(robot_id: str) -> dict[Path, str]:
@@ -48,4 +49,8 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except ConfigError as exc:  # a broken or unknown robot: say which and why
+        print(exc, file=sys.stderr)
+        sys.exit(2)

@@ -26,6 +26,7 @@ from PIL import Image, ImageDraw
 from config import robot_ids
 from controller.kinematics import Kinematics
 from controller.robot import Robot, load_robot
+from controller.yaml_source import ConfigError
 
 AXIS_RGBA = ((0.9, 0.1, 0.1, 1.0), (0.1, 0.75, 0.1, 1.0), (0.1, 0.2, 0.95, 1.0))
 
@@ -135,4 +136,8 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except ConfigError as exc:  # a broken or unknown robot: say which and why
+        print(exc, file=sys.stderr)
+        sys.exit(2)
