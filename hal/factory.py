@@ -1,0 +1,42 @@
+"""Choose a hardware backend by name (``imotiond --hal sim|hil|can``).
+
+=====  ========================================================================
+name   backend
+=====  ========================================================================
+sim    MuJoCo stand-in (:class:`hal.mujoco_backend.MujocoBackend`), lock-step
+ideal  perfect drives (:class:`hal.ideal_backend.IdealBackend`), for tests
+hil    CAN backend talking to the in-process drive emulator over a virtual bus
+can    CAN backend on the buses of the robot's drive profile
+=====  ========================================================================
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from controller.robot import Robot
+from hal.interface import HardwareInterface
+
+HAL_KINDS = ("sim", "ideal", "hil", "can")
+
+
+def make_hardware(
+    kind: str, robot: Robot, dt: float, options: dict[str, Any] | None = None
+) -> HardwareInterface:
+    """A configured-but-inactive-ready backend of ``kind`` for ``robot`` at period ``dt`` [s].
+
+    ``options`` are backend-specific settings from the daemon configuration (``hal.options``).
+    Raises ``ValueError`` naming the problem for an unknown kind or bad options.
+    """
+    options = dict(options or {})
+    if kind == "sim":
+        from hal.mujoco_backend import MujocoBackend
+
+        return MujocoBackend(robot, dt)
+    if kind == "ideal":
+        from hal.ideal_backend import IdealBackend
+
+        return IdealBackend(robot, dt)
+    if kind in ("hil", "can"):
+        raise ValueError(f"hal {kind!r} is not available yet")
+    raise ValueError(f"unknown hal {kind!r}: choose one of {', '.join(HAL_KINDS)}")
