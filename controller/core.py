@@ -104,6 +104,8 @@ class MotionCore:
         self.v_cmd = np.zeros(self.kin.nv)
         self._hw_cmd = np.zeros(len(names))
         self._hw_vel = np.zeros(len(names))
+        #: Last measured positions in hardware order [rad, m] (zeros before the first read).
+        self.measured_hw = np.zeros(len(names))
         self._gripper_motion: dict[RightLeft, GripperMotion] = {}
         self.cycles = 0
         self._settling = 0
@@ -144,6 +146,7 @@ class MotionCore:
 
     def _sync_to_measured(self) -> None:
         measured = self.hw.read().position
+        self.measured_hw = measured.copy()
         self._hw_cmd[:] = measured
         self._hw_vel[:] = 0.0
         self.q = measured[self._hw_index].copy()
@@ -260,6 +263,11 @@ class MotionCore:
                 self.state = CoreState.SERVO_OFF
 
     @property
+    def hw_command(self) -> np.ndarray:
+        """Last commanded positions in hardware order [rad, m]."""
+        return self._hw_cmd
+
+    @property
     def is_moving(self) -> bool:
         return self.motion is not None or bool(self._gripper_motion)
 
@@ -268,7 +276,10 @@ class MotionCore:
         """One control cycle. Never raises for motion problems: they become alarms."""
         with self._lock:
             self.cycles += 1
+            if self.hw.state in (HardwareState.UNCONFIGURED, HardwareState.FINALIZED):
+                return  # unpowered: nothing to read or command
             measured = self.hw.read()
+            self.measured_hw = measured.position
             self.q = measured.position[self._hw_index].copy()
             self.kin.update(self.q)
             faults = self.hw.faults()

@@ -139,6 +139,16 @@ class Kinematics:
         self._original_theta = other._original_theta
         self._set_original(other.original_frame.copy())
 
+    @property
+    def original_theta(self) -> float:
+        """Vehicle θ joint value [rad] when the original frame was set (unwraps θ)."""
+        return self._original_theta
+
+    def set_original_frame(self, pose: pin.SE3, theta: float) -> None:
+        """Restore an original frame published elsewhere (pose in the world, θ joint [rad])."""
+        self._original_theta = float(theta)
+        self._set_original(pose.copy())
+
     def _set_original(self, pose: pin.SE3) -> None:
         self._original = pose
         rot6 = np.zeros((6, 6))

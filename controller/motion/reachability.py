@@ -59,6 +59,8 @@ class ReachabilityChecker:
         specs = [self.kin.robot.joints[n] for n in self.kin.joint_names]
         self.q_min = np.array([s.lower for s in specs])
         self.q_max = np.array([s.upper for s in specs])
+        #: Configuration at the last sample :meth:`check` solved (the path's end on success).
+        self.last_q = np.zeros(self.kin.nv)
 
     def check(
         self,
@@ -72,9 +74,11 @@ class ReachabilityChecker:
         q, held = self._start(live, setup, hold)
         samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
+        self.last_q = q
         for s in samples[1:]:
             target = path.at(s)
             q, err = self._solve(q, side, target, setup.frozen, hold, held)
+            self.last_q = q
             where = "the target" if s >= 1.0 else f"the path at {100 * s:.0f} %"
             if err is not None:
                 return f"{where} is not reachable: {err}"

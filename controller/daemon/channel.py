@@ -1,0 +1,120 @@
+"""The command channel between the gateway and the control process (a Unix socket).
+
+Requests are ``(name, args)`` tuples, answers ``(ok, value_or_code, message)``; both are
+pickled by :mod:`multiprocessing.connection`, which also authenticates the peer with a
+random key kept in the (private, 0700) runtime directory. The control side runs one thread
+per connection; each thread only forwards to :meth:`Controller.submit` and waits (without
+holding the GIL) for the loop's answer.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import secrets
+import threading
+from multiprocessing.connection import Client, Connection, Listener
+from pathlib import Path
+from typing import Any
+
+from controller.daemon.control import Controller
+
+_log = logging.getLogger("imotiond.channel")
+
+SOCKET_NAME = "control.sock"
+KEY_NAME = "control.key"
+
+
+class ChannelError(RuntimeError):
+    """The control process cannot be reached."""
+
+
+class CommandServer:
+    """Accepts gateway connections and forwards their commands to the loop."""
+
+    def __init__(self, controller: Controller, runtime_dir: Path):
+        self.controller = controller
+        key = secrets.token_bytes(32)
+        key_path = Path(runtime_dir) / KEY_NAME
+        fd = os.open(key_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "wb") as f:
+            f.write(key)
+        self.address = str(Path(runtime_dir) / SOCKET_NAME)
+        self.listener = Listener(self.address, family="AF_UNIX", authkey=key)
+        self._closed = False
+        self.thread = threading.Thread(target=self._accept, name="command-accept", daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def _accept(self) -> None:
+        while not self._closed:
+            try:
+                conn = self.listener.accept()
+            except Exception as exc:
+                if not self._closed:
+                    _log.warning("command channel: rejected a connection: %s", exc)
+                continue
+            threading.Thread(
+                target=self._serve, args=(conn,), name="command-conn", daemon=True
+            ).start()
+
+    def _serve(self, conn: Connection) -> None:
+        with conn:
+            while True:
+                try:
+                    name, args = conn.recv()
+                except (EOFError, OSError):
+                    return
+                except Exception as exc:
+                    conn.send((False, "NG", f"malformed command: {exc}"))
+                    continue
+                request = self.controller.submit(name, **args)
+                if request.ok:
+                    conn.send((True, request.value, ""))
+                else:
+                    conn.send((False, request.code, request.message))
+
+    def close(self) -> None:
+        self._closed = True
+        try:
+            self.listener.close()
+        except OSError:
+            pass
+
+
+class CommandClient:
+    """The gateway side; thread-safe (one request at a time on one connection)."""
+
+    def __init__(self, runtime_dir: Path):
+        runtime_dir = Path(runtime_dir)
+        self._key = (runtime_dir / KEY_NAME).read_bytes()
+        self._address = str(runtime_dir / SOCKET_NAME)
+        self._lock = threading.Lock()
+        self._conn: Connection | None = None
+
+    def _connect(self) -> Connection:
+        if self._conn is None:
+            try:
+                self._conn = Client(self._address, family="AF_UNIX", authkey=self._key)
+            except OSError as exc:
+                raise ChannelError(f"control process not reachable: {exc}") from None
+        return self._conn
+
+    def call(self, name: str, **args: Any) -> tuple[bool, Any, str]:
+        """``(True, value, "")`` or ``(False, code_name, message)``."""
+        with self._lock:
+            try:
+                conn = self._connect()
+                conn.send((name, args))
+                reply: tuple[bool, Any, str] = conn.recv()
+                return reply
+            except (EOFError, OSError) as exc:
+                self._conn = None
+                raise ChannelError(f"control process not reachable: {exc}") from None
+
+    def close(self) -> None:
+        with self._lock:
+            if self._conn is not None:
+                self._conn.close()
+                self._conn = None

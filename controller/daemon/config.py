@@ -1,0 +1,220 @@
+"""The daemon's configuration: one validated YAML file, every setting overridable.
+
+``imotiond --config FILE`` reads the file (all keys optional; defaults below); the named flags
+(``--robot``, ``--hal``, ``--listen``) and ``--set KEY=VALUE`` (dotted keys, YAML values,
+e.g. ``--set loop.rate_hz=1000 --set security.tokens.motion=s3cret``) override it. Any
+problem is reported as ``where: key: what is wrong`` and the daemon does not start.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from controller.yaml_source import ConfigError
+
+DEFAULT_LISTEN = "127.0.0.1:50051"
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class LoopConfig(_Strict):
+    #: Control rate [Hz].
+    rate_hz: float = Field(default=500.0, ge=10.0, le=4000.0)
+    #: QP back end (controller.qp.solver.make_solver names).
+    solver: str = "daqp"
+
+
+class RealtimeConfig(_Strict):
+    #: Try SCHED_FIFO + mlockall for the loop thread (falls back with a warning).
+    enabled: bool = True
+    priority: int = Field(default=80, ge=1, le=99)
+    lock_memory: bool = True
+
+
+class TokensConfig(_Strict):
+    #: Token for read-only operations (get*, is*, StreamState). None: the motion token.
+    read: str | None = None
+    #: Token for everything else (motion, settings, servo). Required off loopback.
+    motion: str | None = None
+
+
+class SecurityConfig(_Strict):
+    tls_cert: Path | None = None  #: PEM certificate chain of the server
+    tls_key: Path | None = None  #: PEM private key
+    tokens: TokensConfig = TokensConfig()
+    #: Also demand tokens on loopback / Unix sockets (off: local clients are trusted).
+    require_tokens_locally: bool = False
+
+
+class JaraConfig(_Strict):
+    #: Command cycle reported by getManipInfo and used by the ...CmdCycle moves [ms].
+    cmd_cycle_ms: int = Field(default=20, ge=1, le=1000)
+    #: Maximum Cartesian speed (setMaxSpeedCartesian's initial value) [mm/s, deg/s].
+    max_speed_cartesian: tuple[float, float] = (250.0, 90.0)
+    #: Minimum acceleration times (initial values) [s].
+    min_accel_time_cartesian: float = Field(default=0.1, gt=0.0)
+    min_accel_time_joint: float = Field(default=0.1, gt=0.0)
+
+
+class MonitorConfig(_Strict):
+    #: StreamState rate when the request asks for 0 [Hz].
+    default_rate_hz: float = Field(default=20.0, gt=0.0)
+    #: Concurrent StreamState streams (each takes a gateway thread).
+    max_streams: int = Field(default=8, ge=1, le=64)
+
+
+class DaemonConfig(_Strict):
+    robot: str = "smartpal5"
+    hal: Literal["sim", "hil", "can", "ideal"] = "sim"
+    #: Backend-specific settings (see hal/factory.py).
+    hal_options: dict[str, Any] = {}
+    #: host:port, [v6]:port, or unix:/path/to.sock
+    listen: str = DEFAULT_LISTEN
+    loop: LoopConfig = LoopConfig()
+    realtime: RealtimeConfig = RealtimeConfig()
+    #: JARA_ARM motion queue depth (Spec A never queues).
+    queue_depth: int = Field(default=8, ge=1, le=1000)
+    #: Configure the hardware at start-up (state ServoOff); False: stay Unpowered until
+    #: servoOn.
+    power_on_at_start: bool = True
+    #: gRPC worker threads of the gateway.
+    workers: int = Field(default=16, ge=2, le=256)
+    security: SecurityConfig = SecurityConfig()
+    jara: JaraConfig = JaraConfig()
+    monitor: MonitorConfig = MonitorConfig()
+    #: Where the control process and the gateway meet (snapshot, command socket);
+    #: default: a fresh private directory under /dev/shm or the temp directory.
+    runtime_dir: Path | None = None
+    #: SIGTERM: longest decelerating stop before the servos go off [s].
+    stop_timeout_s: float = Field(default=1.2, gt=0.0, le=10.0)
+    log_level: Literal["debug", "info", "warning", "error"] = "info"
+
+    @field_validator("listen")
+    @classmethod
+    def _listen(cls, value: str) -> str:
+        parse_listen(value)
+        return value
+
+    @property
+    def period(self) -> float:
+        """Loop period [s]."""
+        return 1.0 / self.loop.rate_hz
+
+
+def parse_listen(address: str) -> tuple[str, str | None, int | None]:
+    """``("unix", path, None)`` or ``("tcp", host, port)``; ValueError says what is wrong."""
+    if address.startswith("unix:"):
+        path = address.removeprefix("unix:").removeprefix("//")
+        if not path:
+            raise ValueError("unix: address needs a socket path, e.g. unix:/run/imotion.sock")
+        return "unix", path, None
+    host, sep, port_text = address.rpartition(":")
+    if not sep or not host:
+        raise ValueError(f"{address!r}: expected host:port, [v6addr]:port or unix:/path")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ValueError(f"{address!r}: port {port_text!r} is not a number") from None
+    if not 0 <= port <= 65535:
+        raise ValueError(f"{address!r}: port {port} is outside 0..65535")
+    return "tcp", host.strip("[]"), port
+
+
+def is_local(address: str) -> bool:
+    """True for Unix sockets and loopback addresses (and ``localhost``)."""
+    kind, host, _ = parse_listen(address)
+    if kind == "unix":
+        return True
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(str(host)).is_loopback
+    except ValueError:
+        return False  # a host name: may resolve to anything
+
+
+def security_problems(cfg: DaemonConfig) -> list[str]:
+    """Why the daemon must refuse to start with this security set-up (empty: fine)."""
+    problems = []
+    sec = cfg.security
+    if (sec.tls_cert is None) != (sec.tls_key is None):
+        problems.append("security: tls_cert and tls_key go together")
+    for name in ("tls_cert", "tls_key"):
+        path = getattr(sec, name)
+        if path is not None and not Path(path).is_file():
+            problems.append(f"security.{name}: {path} is not a readable file")
+    if not is_local(cfg.listen):
+        if sec.tls_cert is None:
+            problems.append(
+                f"listen: {cfg.listen} is not loopback or a Unix socket: TLS is required "
+                "(security.tls_cert and security.tls_key)"
+            )
+        if not sec.tokens.motion:
+            problems.append(
+                f"listen: {cfg.listen} is not loopback or a Unix socket: a client token is "
+                "required (security.tokens.motion, optionally security.tokens.read)"
+            )
+    return problems
+
+
+def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
+    parts = key.split(".")
+    node = data
+    for part in parts[:-1]:
+        child = node.setdefault(part, {})
+        if not isinstance(child, dict):
+            raise ConfigError(f"--set {key}: {part} is not a section")
+        node = child
+    node[parts[-1]] = value
+
+
+def load_config(
+    path: Path | None = None,
+    overrides: dict[str, Any] | None = None,
+    sets: list[str] | None = None,
+) -> DaemonConfig:
+    """File, then ``sets`` (``KEY=VALUE`` strings), then ``overrides`` (flag values)."""
+    where = str(path) if path else "defaults"
+    data: dict[str, Any] = {}
+    if path is not None:
+        try:
+            loaded = yaml.safe_load(Path(path).read_text())
+        except OSError as exc:
+            raise ConfigError(f"{path}: cannot read: {exc.strerror}") from None
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+        if loaded is not None and not isinstance(loaded, dict):
+            raise ConfigError(f"{path}: expected a mapping of settings at the top level")
+        data = loaded or {}
+    for item in sets or []:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ConfigError(f"--set {item!r}: expected KEY=VALUE, e.g. loop.rate_hz=1000")
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            value = text
+        _set_dotted(data, key.strip(), value)
+        where = f"{where} + --set"
+    for key, value in (overrides or {}).items():
+        if value is not None:
+            _set_dotted(data, key, value)
+    try:
+        cfg = DaemonConfig.model_validate(data)
+    except ValidationError as exc:
+        lines = []
+        for err in exc.errors():
+            key = ".".join(str(p) for p in err["loc"]) or "(top level)"
+            lines.append(f"{where}: {key}: {err['msg']}")
+        raise ConfigError("\n".join(lines)) from None
+    if not math.isfinite(cfg.period):
+        raise ConfigError(f"{where}: loop.rate_hz: must be finite")
+    return cfg

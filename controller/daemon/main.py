@@ -1,0 +1,239 @@
+"""``imotiond``: the motion-controller daemon.
+
+Two processes: this one runs the fixed-rate loop (real-time where allowed) and owns the
+hardware; a gateway child (``controller.service.gateway``) serves gRPC. They meet in a
+private runtime directory: the snapshot (shared memory) and the command socket.
+
+Start-up: configuration → hardware up → loop ready → gateway listening → ``READY=1``.
+``WATCHDOG=1`` is sent only while the loop advances. SIGTERM/SIGINT: decelerating stop,
+servo off, exit 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from controller.daemon import systemd
+from controller.daemon.channel import CommandServer
+from controller.daemon.config import DaemonConfig, load_config, security_problems
+from controller.daemon.control import Controller
+from controller.daemon.logs import setup_logging
+from controller.realtime import apply_realtime, restore
+from controller.robot import load_robot
+from controller.yaml_source import ConfigError
+from hal.factory import make_hardware
+
+_log = logging.getLogger("imotiond")
+
+#: Longest wait for the gateway to listen [s].
+GATEWAY_START_TIMEOUT = 60.0
+
+
+def make_runtime_dir(cfg: DaemonConfig) -> Path:
+    if cfg.runtime_dir is not None:
+        path = Path(cfg.runtime_dir)
+        path.mkdir(parents=True, exist_ok=True, mode=0o700)
+        return path
+    base = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
+    return Path(tempfile.mkdtemp(prefix="imotiond-", dir=base))
+
+
+class Daemon:
+    """The control side of imotiond, usable in-process (tests) or from :func:`main`."""
+
+    def __init__(self, cfg: DaemonConfig):
+        from controller.service.gateway import CONFIG_NAME, JOINTS_NAME, SNAPSHOT_NAME
+
+        self.cfg = cfg
+        self.runtime = make_runtime_dir(cfg)
+        self._own_runtime = cfg.runtime_dir is None
+        self.robot = load_robot(cfg.robot)
+        self.hw = make_hardware(cfg.hal, self.robot, cfg.period, cfg.hal_options)
+        if cfg.power_on_at_start:
+            self.hw.configure()
+        self.controller = Controller(
+            self.robot,
+            self.hw,
+            cfg.loop.rate_hz,
+            self.runtime / SNAPSHOT_NAME,
+            cfg.queue_depth,
+            cfg.loop.solver,
+        )
+        self.controller.stop_timeout = cfg.stop_timeout_s
+        (self.runtime / JOINTS_NAME).write_text(json.dumps(list(self.hw.joint_names)))
+        (self.runtime / CONFIG_NAME).write_text(cfg.model_dump_json())
+        self.commands = CommandServer(self.controller, self.runtime)
+        self.commands.start()
+        self.gateway: subprocess.Popen[str] | None = None
+        self.address: str | None = None
+        self.exit_code = 0
+
+    # ------------------------------------------------------------------ gateway
+    def start_gateway_process(self) -> str:
+        cmd = [sys.executable, "-m", "controller.service.gateway", "--runtime", str(self.runtime)]
+        self.gateway = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+        assert self.gateway.stdout is not None
+        line = _readline(self.gateway.stdout, GATEWAY_START_TIMEOUT)
+        if not line.startswith("READY "):
+            self.gateway.kill()
+            raise RuntimeError(f"the gateway did not start: {line.strip() or 'no answer'}")
+        self.address = line.split(" ", 1)[1].strip()
+        return self.address
+
+    def gateway_alive(self) -> bool:
+        return self.gateway is None or self.gateway.poll() is None
+
+    # ------------------------------------------------------------------ running
+    def run(self) -> None:
+        """The loop, in the calling thread, until shutdown."""
+        self.controller.run()
+
+    def request_shutdown(self, *_: Any) -> None:
+        self.controller.shutdown_requested.set()
+
+    def close(self) -> None:
+        if self.gateway is not None and self.gateway.poll() is None:
+            self.gateway.terminate()
+            try:
+                self.gateway.wait(1.0)
+            except subprocess.TimeoutExpired:
+                self.gateway.kill()
+        self.commands.close()
+        try:
+            self.hw.shutdown()
+        finally:
+            self.controller.close()
+            if self._own_runtime:
+                shutil.rmtree(self.runtime, ignore_errors=True)
+
+
+def _readline(stream: Any, timeout: float) -> str:
+    result: list[str] = []
+    reader = threading.Thread(target=lambda: result.append(stream.readline()), daemon=True)
+    reader.start()
+    reader.join(timeout)
+    return result[0] if result else ""
+
+
+def _supervise(daemon: Daemon) -> None:
+    """Watchdog pings while the loop advances; STATUS= on state changes; gateway health."""
+    period = systemd.watchdog_period()
+    interval = min(0.5, period / 3) if period else 0.5
+    last_cycle = -1
+    last_status = ""
+    ctl = daemon.controller
+    while not ctl.shutdown_requested.is_set():
+        time.sleep(interval)
+        cycles = ctl.core.cycles
+        if cycles != last_cycle:
+            systemd.notify("WATCHDOG=1")
+            last_cycle = cycles
+        status = f"STATUS={ctl.core.state.value}, {len(ctl.core.alarms)} alarm(s)"
+        if status != last_status:
+            systemd.notify(status)
+            last_status = status
+        if not daemon.gateway_alive():
+            _log.error("the gateway process exited: shutting down")
+            daemon.exit_code = 1
+            daemon.request_shutdown()
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(
+        prog="imotiond",
+        description="imotion whole-body motion controller daemon",
+    )
+    p.add_argument("--config", type=Path, help="YAML configuration file")
+    p.add_argument("--robot", help="robot id (smartpal5, pa10, rh, seednoid) or profile dir")
+    p.add_argument("--hal", choices=["sim", "hil", "can", "ideal"], help="hardware layer")
+    p.add_argument("--listen", help="host:port or unix:/path (default 127.0.0.1:50051)")
+    p.add_argument("--rate", type=float, help="loop rate [Hz] (loop.rate_hz)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override any setting, e.g. --set queue_depth=16 (repeatable)",
+    )
+    p.add_argument("--check", action="store_true", help="validate the configuration and exit")
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        cfg = load_config(
+            args.config,
+            {
+                "robot": args.robot,
+                "hal": args.hal,
+                "listen": args.listen,
+                "loop.rate_hz": args.rate,
+            },
+            args.set,
+        )
+    except ConfigError as exc:
+        print(f"imotiond: configuration error:\n{exc}", file=sys.stderr)
+        return 2
+    setup_logging(cfg.log_level, "imotiond")
+    problems = security_problems(cfg)
+    if problems:
+        for problem in problems:
+            _log.error("refusing to start: %s", problem)
+        return 2
+    if args.check:
+        print("configuration OK")
+        return 0
+    systemd.notify("STATUS=starting: loading the robot and the hardware layer")
+    try:
+        daemon = Daemon(cfg)
+    except (ConfigError, ValueError, OSError, RuntimeError) as exc:
+        _log.error("cannot start: %s", exc)
+        return 2
+    signal.signal(signal.SIGTERM, daemon.request_shutdown)
+    signal.signal(signal.SIGINT, daemon.request_shutdown)
+    try:
+        address = daemon.start_gateway_process()
+    except Exception as exc:
+        _log.error("cannot start the gateway: %s", exc)
+        daemon.close()
+        return 1
+    report = (
+        apply_realtime(cfg.realtime.priority, cfg.realtime.lock_memory)
+        if cfg.realtime.enabled
+        else None
+    )
+    _log.info(
+        "ready: robot %s, hal %s, %g Hz, listening on %s",
+        cfg.robot,
+        cfg.hal,
+        cfg.loop.rate_hz,
+        address,
+    )
+    systemd.notify("READY=1", f"STATUS=ready on {address}")
+    threading.Thread(target=_supervise, args=(daemon,), name="supervise", daemon=True).start()
+    try:
+        daemon.run()
+    finally:
+        if report is not None:
+            restore(report)
+        systemd.notify("STOPPING=1")
+        daemon.close()
+    _log.info("stopped")
+    return daemon.exit_code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,123 @@
+"""Motion requests as plain data: what the gateway plans and the control loop builds.
+
+The gateway validates a command, converts it to SI, resolves relative targets and checks
+reachability; it sends one of these (picklable) specs to the control process, whose loop
+thread turns it into a :class:`controller.motion.motions.Motion` against the live
+kinematics when the motion starts (at once, or when it leaves the JARA queue). Building is
+cheap (paths and a Ruckig time law); everything expensive happened in the gateway.
+
+Poses are 4x4 homogeneous matrices in the original frame [m]; angles [rad].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from controller.enums import RightLeft
+from controller.kinematics import Kinematics
+from controller.motion.motions import (
+    CartesianMotion,
+    CPHoldMotion,
+    JointMotion,
+    Motion,
+    VehicleMotion,
+)
+from controller.motion.paths import ArcPath, LinePath
+from controller.redundant_axes import RedundantAxis
+
+Range = tuple[float, float]
+
+
+@dataclass
+class MotionSpec:
+    #: Kinematic configuration the gateway planned from; a motion started "now" is refused
+    #: if the robot has since moved (another client got there first).
+    planned_from: np.ndarray | None = field(default=None, kw_only=True)
+    #: Human-readable summary for logs.
+    label: str = field(default="motion", kw_only=True)
+
+    def build(self, kin: Kinematics, dt: float) -> Motion:
+        raise NotImplementedError
+
+
+@dataclass
+class JointMoveSpec(MotionSpec):
+    """Joint-space PTP of the kinematic joints ``joints`` (indices into q) to ``target``."""
+
+    joints: np.ndarray
+    target: np.ndarray
+    speed: np.ndarray  #: per joint [rad/s, m/s]
+    accel: np.ndarray  #: per joint [rad/s², m/s²]
+    duration: float | None = None  #: all joints start and stop together in this time [s]
+    hold: tuple[RightLeft, ...] = ()  #: arms whose control points stay put
+
+    def build(self, kin: Kinematics, dt: float) -> Motion:
+        return JointMotion(
+            kin, dt, self.joints, self.target, self.speed, self.accel, self.duration, self.hold
+        )
+
+
+@dataclass
+class CartesianMoveSpec(MotionSpec):
+    """Control point of ``side`` along a line (or an arc through ``via``) to ``target``."""
+
+    side: RightLeft
+    target: np.ndarray  #: 4x4, original frame
+    speed: tuple[float, float]  #: translation [m/s], rotation [rad/s]
+    accel: tuple[float, float]
+    allowed: dict[RedundantAxis, bool] = field(default_factory=dict)
+    ranges: dict[RedundantAxis, Range | None] = field(default_factory=dict)
+    hold_other: bool = False
+    elbow: float | None = None  #: target elbow angle [rad]
+    via: np.ndarray | None = None  #: 4x4 via point of an arc
+    duration: float | None = None
+
+    def build(self, kin: Kinematics, dt: float) -> Motion:
+        start = kin.pose(self.side)
+        end = pin.SE3(self.target)
+        path: LinePath | ArcPath
+        if self.via is None:
+            path = LinePath(start, end)
+        else:
+            path = ArcPath(start, pin.SE3(self.via), end)
+        return CartesianMotion(
+            kin,
+            dt,
+            self.side,
+            path,
+            self.speed,
+            self.accel,
+            self.allowed,
+            self.ranges,
+            self.hold_other,
+            self.elbow,
+            self.duration,
+        )
+
+
+@dataclass
+class CPHoldSpec(MotionSpec):
+    """Redundant axes to ``targets`` with the control points of ``held`` fixed."""
+
+    held: tuple[RightLeft, ...]
+    targets: dict[RedundantAxis, float]
+    speed: np.ndarray  #: per target, in ``targets`` order
+    accel: np.ndarray
+
+    def build(self, kin: Kinematics, dt: float) -> Motion:
+        return CPHoldMotion(kin, dt, self.held, self.targets, self.speed, self.accel)
+
+
+@dataclass
+class VehicleMoveSpec(MotionSpec):
+    """Vehicle to (x [m], y [m], θ [rad]) in the original frame."""
+
+    target: np.ndarray
+    speed: tuple[float, float]  #: translation [m/s], rotation [rad/s]
+    accel: tuple[float, float]
+
+    def build(self, kin: Kinematics, dt: float) -> Motion:
+        return VehicleMotion(kin, dt, self.target, self.speed, self.accel)

@@ -1,0 +1,178 @@
+"""What every servicer shares: the gateway context, the reply guard, argument checks and
+message conversions (spec units at the edge, SI inside).
+
+Every RPC method is wrapped by :func:`rpc`: whatever goes wrong becomes a ReturnID with a
+code and a comment, never an exception escaping to gRPC (bad input never crashes the daemon
+and never moves the robot).
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from controller.conversions import ArgumentError, hg_to_se3, se3_to_hg
+from controller.daemon.channel import ChannelError, CommandClient
+from controller.daemon.config import DaemonConfig
+from controller.daemon.snapshot import Snapshot
+from controller.enums import RightLeft, UnitType
+from controller.robot import Robot
+from controller.rpc import imotion_pb2 as pb
+from controller.service.codes import REFUSAL_CODES, Code, Failure
+from controller.service.planner import Planner
+from controller.service.robot_view import RobotView
+
+_log = logging.getLogger("imotiond.service")
+
+
+@dataclass
+class Context:
+    """What servicers work with: configuration, views of the robot, planner, control link."""
+
+    config: DaemonConfig
+    view: RobotView  #: for queries
+    planner: Planner  #: owns its own view, for planning
+    control: CommandClient
+
+    @property
+    def robot(self) -> Robot:
+        return self.view.robot
+
+    def snapshot(self) -> Snapshot:
+        return self.view.snapshot()
+
+    def call(self, name: str, sv_on_code: bool = True, **args: Any) -> Any:
+        """Run a control command; a refusal becomes a Failure with the family's code.
+
+        ``sv_on_code``: the operation lists NOT_SV_ON_ERR (else servo off is STATUS_ERR).
+        """
+        ok, value, message = self.control.call(name, **args)
+        if ok:
+            return value
+        code = REFUSAL_CODES.get(value, Code.NG)
+        if code == Code.NOT_SV_ON_ERR and not sv_on_code:
+            code = Code.STATUS_ERR
+        raise Failure(code, message)
+
+
+def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Wrap a servicer method ``fn(self, request) -> dict | None`` into a gRPC handler.
+
+    The dict holds the response's out-fields; an optional ``"comment"`` key replaces "OK".
+    """
+
+    def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.wraps(fn)
+        def handler(self: Any, request: Any, context: Any) -> Any:
+            try:
+                outs = fn(self, request) or {}
+                comment = outs.pop("comment", "OK")
+                return response(return_id=pb.ReturnID(id=Code.OK, comment=comment), **outs)
+            except Failure as exc:
+                code, comment = exc.code, exc.comment
+            except ArgumentError as exc:
+                code, comment = Code.VALUE_ERR, str(exc)
+            except ChannelError as exc:
+                code, comment = Code.NG, f"the control loop is not reachable: {exc}"
+            except Exception as exc:  # never let a request take the gateway down
+                _log.exception("%s failed", fn.__name__)
+                code, comment = Code.NG, f"internal error in {fn.__name__}: {exc!r}"
+            _log.info("%s -> %s: %s", fn.__name__, Code(code).name, comment)
+            return response(return_id=pb.ReturnID(id=code, comment=comment))
+
+        return handler
+
+    return decorate
+
+
+# ------------------------------------------------------------------ argument checks
+def side_arg(view: RobotView, value: int, name: str = "type") -> RightLeft:
+    try:
+        side = RightLeft(value)
+    except ValueError:
+        raise ArgumentError(f"{name}: {value} is not RIGHT (0) or LEFT (1)") from None
+    if side not in view.arms:
+        have = ", ".join(s.name for s in view.arms)
+        raise ArgumentError(f"{name}: this robot has no {side.name} arm (it has {have})")
+    return side
+
+
+def unit_arg(view: RobotView, value: int, name: str = "unit") -> UnitType:
+    names = ("RIGHT_ARM", "LEFT_ARM", "LUMBER", "VEHICLE")
+    if not 0 <= value < len(names):
+        raise ArgumentError(f"{name}: {value} is not a UnitType (0..3)")
+    unit = UnitType[names[value]]
+    if not view.has_unit(unit):
+        raise ArgumentError(f"{name}: this robot has no {unit.value} unit")
+    return unit
+
+
+def hg_arg(msg: pb.HgMatrix, name: str) -> pin.SE3:
+    values = list(msg.m)
+    if len(values) != 12:
+        raise ArgumentError(
+            f"{name}: expected 12 numbers (3x4 row-major [R | p]), got {len(values)}"
+        )
+    return hg_to_se3(np.array(values).reshape(3, 4), name)
+
+
+def hg_msg(pose: pin.SE3) -> pb.HgMatrix:
+    return pb.HgMatrix(m=se3_to_hg(pose).ravel().tolist())
+
+
+def finite_arg(value: float, name: str) -> float:
+    if not math.isfinite(value):
+        raise ArgumentError(f"{name}: {value} is not a finite number")
+    return float(value)
+
+
+def positive_arg(value: float, name: str, unit: str = "") -> float:
+    finite_arg(value, name)
+    if value <= 0.0:
+        raise ArgumentError(f"{name}: must be > 0{' ' + unit if unit else ''}, got {value:g}")
+    return float(value)
+
+
+def ratio_arg(value: int, name: str) -> float:
+    """A % ratio 0..100 as a fraction 0..1."""
+    if not 0 <= value <= 100:
+        raise ArgumentError(f"{name}: {value} % is outside 0..100 %")
+    return value / 100.0
+
+
+def seq_arg(values: Any, n: int, name: str, what: str = "values") -> np.ndarray:
+    arr = np.array(list(values), dtype=float)
+    if arr.size != n:
+        raise ArgumentError(f"{name}: expected {n} {what}, got {arr.size}")
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        raise ArgumentError(f"{name}[{int(bad[0])}]: {arr[bad[0]]} is not a finite number")
+    return arr
+
+
+def car_pos_msg(pose: pin.SE3, elbow: float) -> pb.CarPosWithElbow:
+    return pb.CarPosWithElbow(car_pos=hg_msg(pose), elbow=math.degrees(elbow), struct_flag=0)
+
+
+def alarm_msgs(snap: Snapshot, with_module: bool = True) -> list[pb.Alarm]:
+    return [
+        pb.Alarm(
+            code=a["code"],
+            type=a["type"],
+            description=a["description"],
+            module_name=a["module"] if with_module else "",
+        )
+        for a in snap.alarms
+    ]
+
+
+def require_gripper(view: RobotView, side: RightLeft, name: str = "type") -> None:
+    if side.name not in view.robot.profile.grippers:
+        raise ArgumentError(f"{name}: the {side.name} arm has no gripper")

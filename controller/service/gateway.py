@@ -1,0 +1,120 @@
+"""The gRPC gateway: every servicer, authentication, TLS, the listening socket.
+
+Runs in its own process (``python -m controller.service.gateway --runtime DIR``, started by
+imotiond) so client load never competes with the control loop for the GIL: it reads the
+loop's state from shared memory and sends commands over the control channel. It can also
+run inside another process (tests) through :func:`start_gateway`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import sys
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import grpc
+
+from controller.daemon.channel import CommandClient
+from controller.daemon.config import DaemonConfig, parse_listen
+from controller.daemon.logs import setup_logging
+from controller.daemon.snapshot import SnapshotReader
+from controller.robot import load_robot
+from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.service.auth import TokenInterceptor
+from controller.service.base import Context
+from controller.service.monitor import MonitorServicer
+from controller.service.planner import Planner
+from controller.service.robot_view import RobotView
+from controller.service.spec_a import IntegratedMotionServicer
+
+_log = logging.getLogger("imotiond.gateway")
+
+CONFIG_NAME = "config.json"
+JOINTS_NAME = "joints.json"
+SNAPSHOT_NAME = "snapshot"
+
+
+def build_context(cfg: DaemonConfig, runtime_dir: Path) -> Context:
+    robot = load_robot(cfg.robot)
+    joints = json.loads((runtime_dir / JOINTS_NAME).read_text())
+    view = RobotView(robot, SnapshotReader(runtime_dir / SNAPSHOT_NAME, len(joints)), joints)
+    plan_view = RobotView(robot, SnapshotReader(runtime_dir / SNAPSHOT_NAME, len(joints)), joints)
+    return Context(cfg, view, Planner(plan_view, cfg.period), CommandClient(runtime_dir))
+
+
+def add_servicers(server: grpc.Server, ctx: Context) -> None:
+    pb_grpc.add_IntegratedMotionServicer_to_server(IntegratedMotionServicer(ctx), server)
+    pb_grpc.add_MonitorServicer_to_server(MonitorServicer(ctx), server)
+    try:
+        from controller.service.jara import add_jara_servicers
+    except ImportError:  # pragma: no cover - during development only
+        return
+    add_jara_servicers(server, ctx)
+
+
+def bind(server: grpc.Server, cfg: DaemonConfig) -> str:
+    """Bind the configured address (TLS when configured); returns the bound address."""
+    kind, host, port = parse_listen(cfg.listen)
+    host_text = str(host)
+    if kind == "unix":
+        target = cfg.listen
+    else:
+        target = f"[{host_text}]:{port}" if ":" in host_text else f"{host_text}:{port}"
+    sec = cfg.security
+    if sec.tls_cert is not None and sec.tls_key is not None:
+        creds = grpc.ssl_server_credentials(
+            [(Path(sec.tls_key).read_bytes(), Path(sec.tls_cert).read_bytes())]
+        )
+        bound = server.add_secure_port(target, creds)
+    else:
+        bound = server.add_insecure_port(target)
+    if kind == "tcp" and bound == 0:
+        raise OSError(f"cannot listen on {cfg.listen} (address in use or not available)")
+    if kind == "tcp" and port == 0:
+        return f"{host}:{bound}"
+    return cfg.listen
+
+
+def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> tuple[grpc.Server, str, Context]:
+    ctx = build_context(cfg, runtime_dir)
+    interceptor = TokenInterceptor(cfg.security.tokens)
+    server = grpc.server(
+        ThreadPoolExecutor(max_workers=cfg.workers, thread_name_prefix="grpc"),
+        interceptors=[interceptor] if interceptor.enabled else [],
+        maximum_concurrent_rpcs=cfg.workers * 8,
+    )
+    add_servicers(server, ctx)
+    address = bind(server, cfg)
+    server.start()
+    return server, address, ctx
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="imotion gRPC gateway (started by imotiond)")
+    parser.add_argument("--runtime", type=Path, required=True)
+    args = parser.parse_args(argv)
+    cfg = DaemonConfig.model_validate_json((args.runtime / CONFIG_NAME).read_text())
+    setup_logging(cfg.log_level, "gateway")
+    try:
+        server, address, _ = start_gateway(cfg, args.runtime)
+    except Exception as exc:
+        _log.error("gateway failed to start: %s", exc)
+        print(f"FAILED {exc}", flush=True)
+        return 1
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: done.set())
+    signal.signal(signal.SIGINT, lambda *_: done.set())
+    print(f"READY {address}", flush=True)
+    _log.info("serving on %s", address)
+    done.wait()
+    server.stop(grace=0.3).wait(1.0)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

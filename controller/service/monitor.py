@@ -1,0 +1,91 @@
+"""Monitor.StreamState: state, joints, control points, alarms and loop statistics at a rate.
+
+Samples come from the shared-memory snapshot, so any number of streams costs the control
+loop nothing. ``rate_hz`` 0 means the configured default; negative or non-finite is
+INVALID_ARGUMENT; rates above the loop rate are clamped to it.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+
+import grpc
+
+from controller.enums import FrameType, UnitType
+from controller.rpc import imotion_pb2 as pb
+from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.service.base import Context, alarm_msgs, car_pos_msg
+from controller.service.codes import spec_a_state
+
+
+class MonitorServicer(pb_grpc.MonitorServicer):
+    def __init__(self, ctx: Context):
+        self.ctx = ctx
+        self._streams = threading.BoundedSemaphore(ctx.config.monitor.max_streams)
+
+    def sample(self, sequence: int) -> pb.StateSample:
+        view = self.ctx.view
+        snap = view.snapshot()
+        state, text = spec_a_state(snap)
+        joints = [
+            pb.UnitJointPositions(
+                unit=unit.value,
+                position=view.unit_positions(snap, unit).tolist(),
+            )
+            for unit in UnitType
+            if view.has_unit(unit)
+        ]
+        points = []
+        for side in view.arms:
+            pose, elbow = view.pose(snap, side, FrameType.ORIGINAL_FRAME)
+            points.append(pb.ControlPointPose(arm=side.name, pose=car_pos_msg(pose, elbow)))
+        loop = pb.LoopStats(
+            cycles=snap.cycle,
+            overruns=snap.overruns,
+            compute=pb.LatencyStats(
+                p50_us=snap.compute_us[0], p99_us=snap.compute_us[1], max_us=snap.compute_us[2]
+            ),
+            wake_latency=pb.LatencyStats(
+                p50_us=snap.wake_us[0], p99_us=snap.wake_us[1], max_us=snap.wake_us[2]
+            ),
+        )
+        return pb.StateSample(
+            sequence=sequence,
+            stamp_s=snap.stamp,
+            status_id=int(state),
+            status_message=text,
+            joints=joints,
+            control_points=points,
+            alarms=alarm_msgs(snap),
+            loop=loop,
+        )
+
+    def StreamState(self, request, context):
+        rate = request.rate_hz
+        if not math.isfinite(rate) or rate < 0:
+            context.abort(grpc.StatusCode.INVALID_ARGUMENT, f"rate_hz: {rate} must be >= 0")
+        if rate == 0:
+            rate = self.ctx.config.monitor.default_rate_hz
+        rate = min(rate, self.ctx.config.loop.rate_hz)
+        if not self._streams.acquire(blocking=False):
+            context.abort(
+                grpc.StatusCode.RESOURCE_EXHAUSTED,
+                f"at most {self.ctx.config.monitor.max_streams} StreamState streams at once",
+            )
+        try:
+            period = 1.0 / rate
+            next_t = time.monotonic()
+            sequence = 0
+            while context.is_active():
+                yield self.sample(sequence)
+                sequence += 1
+                next_t += period
+                delay = next_t - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+                else:
+                    next_t = time.monotonic()
+        finally:
+            self._streams.release()

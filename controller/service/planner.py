@@ -1,0 +1,247 @@
+"""Planning in the gateway: SI requests → checked motion specs for the control process.
+
+Runs outside the control process so reachability checks (a position-level IK along the
+sampled path) never compete with the loop. One plan at a time (a lock): two clients cannot
+plan from the same state and both start.
+
+For the JARA queue the planner remembers where the queued motions will leave the robot
+(:attr:`Planner.tail`), so a command queued behind others is planned, checked and made
+relative from there, not from where the robot happens to be now.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+import pinocchio as pin
+
+from controller.daemon.motion_specs import (
+    CartesianMoveSpec,
+    CPHoldSpec,
+    JointMoveSpec,
+    VehicleMoveSpec,
+)
+from controller.daemon.snapshot import Snapshot
+from controller.enums import RightLeft
+from controller.motion.motions import other_side
+from controller.motion.reachability import ReachabilityChecker
+from controller.redundant_axes import RedundantAxis
+from controller.service.codes import Code, Failure
+from controller.service.robot_view import RobotView
+
+Range = tuple[float, float]
+
+
+class Planner:
+    def __init__(self, view: RobotView, dt: float):
+        self.view = view
+        self.dt = dt
+        self.checker = ReachabilityChecker(view.kin)
+        self.lock = threading.RLock()
+        self.tail: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ base state
+    def base_q(self, snap: Snapshot, queued: bool) -> np.ndarray:
+        """Configuration a new motion starts from: the measured one, or (queued behind
+        running/queued motions) the planned end of the queue."""
+        idle = not snap.moving and snap.queue == 0 and snap.core_state == "ready"
+        if queued and not idle and self.tail is not None:
+            return self.tail.copy()
+        return self.view.measured_q(snap).copy()
+
+    def remember(self, q_end: np.ndarray) -> None:
+        self.tail = q_end.copy()
+
+    def set_joint_limits(self, indices: np.ndarray, lower: np.ndarray, upper: np.ndarray):
+        self.checker.q_min[indices] = lower
+        self.checker.q_max[indices] = upper
+
+    # ------------------------------------------------------------------ motions
+    def cartesian(
+        self,
+        snap: Snapshot,
+        q0: np.ndarray,
+        side: RightLeft,
+        target: pin.SE3,
+        speed: tuple[float, float],
+        accel: tuple[float, float],
+        allowed: dict[RedundantAxis, bool],
+        ranges: dict[RedundantAxis, Range | None],
+        hold_other: bool,
+        elbow: float | None = None,
+        via: pin.SE3 | None = None,
+        duration: float | None = None,
+        label: str = "Cartesian move",
+    ) -> tuple[CartesianMoveSpec, np.ndarray]:
+        """A checked straight-line (or arc) move; Failure(CANNOT_REACH_TARGET_ERR) if not."""
+        spec = CartesianMoveSpec(
+            side=side,
+            target=target.homogeneous.copy(),
+            speed=speed,
+            accel=accel,
+            allowed=dict(allowed),
+            ranges=dict(ranges),
+            hold_other=hold_other and other_side(side) in self.view.arms,
+            elbow=elbow,
+            via=None if via is None else via.homogeneous.copy(),
+            duration=duration,
+            planned_from=q0.copy(),
+            label=label,
+        )
+        with self.lock, self.view.at(snap, q0) as kin:
+            motion = spec.build(kin, self.dt)
+            hold = other_side(side) if spec.hold_other else None
+            reason = self.checker.check(kin, side, motion.path, motion.setup(), hold)  # type: ignore[attr-defined]
+            q_end = self.checker.last_q.copy()
+        if reason is not None:
+            raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
+        return spec, q_end
+
+    def ptp_cartesian(
+        self,
+        snap: Snapshot,
+        q0: np.ndarray,
+        side: RightLeft,
+        target: pin.SE3,
+        allowed: dict[RedundantAxis, bool],
+        ranges: dict[RedundantAxis, Range | None],
+        hold_other: bool,
+        duration: float | None,
+        speed_share: float = 1.0,
+        accel_share: float = 0.5,
+        label: str = "PTP Cartesian move",
+    ) -> tuple[JointMoveSpec, np.ndarray]:
+        """Joint-space move to the IK solution of ``target`` under the mask and ranges."""
+        probe = CartesianMoveSpec(
+            side=side,
+            target=target.homogeneous.copy(),
+            speed=(1.0, 1.0),
+            accel=(1.0, 1.0),
+            allowed=dict(allowed),
+            ranges=dict(ranges),
+            hold_other=hold_other and other_side(side) in self.view.arms,
+        )
+        with self.lock, self.view.at(snap, q0) as kin:
+            setup = probe.build(kin, self.dt).setup()
+            hold = other_side(side) if probe.hold_other else None
+            q_goal, reason = self.checker.solve_pose(kin, side, target, setup, hold)
+        if reason is not None:
+            raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
+        joints = np.flatnonzero(~setup.frozen)
+        spec = self.joint(
+            q0,
+            joints,
+            q_goal[joints],
+            speed_share,
+            accel_share,
+            duration,
+            hold=(other_side(side),) if probe.hold_other else (),
+            label=label,
+        )
+        return spec, q_goal
+
+    def joint(
+        self,
+        q0: np.ndarray,
+        joints: np.ndarray,
+        target: np.ndarray,
+        speed: float | np.ndarray,
+        accel: float | np.ndarray,
+        duration: float | None = None,
+        hold: tuple[RightLeft, ...] = (),
+        label: str = "joint move",
+        absolute: bool = False,
+    ) -> JointMoveSpec:
+        """Joint move; ``speed``/``accel`` are shares of the joints' limits unless
+        ``absolute`` (then SI per joint). Targets outside the limits are VALUE_ERR."""
+        kin = self.view.kin
+        names = [kin.joint_names[i] for i in joints]
+        specs = [self.view.robot.joints[n] for n in names]
+        lo = self.checker.q_min[joints]
+        hi = self.checker.q_max[joints]
+        for name, value, a, b in zip(names, target, lo, hi, strict=True):
+            if not a - 1e-9 <= value <= b + 1e-9:
+                raise Failure(
+                    Code.VALUE_ERR,
+                    f"{name}: target {_show(value, name, self.view)} is outside its limits "
+                    f"[{_show(a, name, self.view)}, {_show(b, name, self.view)}]",
+                )
+        v_lim = np.array([s.velocity for s in specs])
+        a_lim = np.array([s.acceleration for s in specs])
+        if absolute:
+            v = np.asarray(speed, dtype=float)
+            a = np.asarray(accel, dtype=float)
+        else:
+            v = v_lim * speed
+            a = a_lim * accel
+        if duration is not None:
+            need = min_duration(np.abs(target - q0[joints]), v_lim, a)
+            if duration + 1e-9 < need:
+                raise Failure(
+                    Code.VALUE_ERR,
+                    f"time: {duration:g} s is too short, the joints need at least {need:.3f} s",
+                )
+            v = v_lim
+        return JointMoveSpec(
+            joints=np.asarray(joints),
+            target=np.asarray(target, dtype=float),
+            speed=v,
+            accel=a,
+            duration=duration,
+            hold=hold,
+            planned_from=q0.copy(),
+            label=label,
+        )
+
+    def cp_hold(
+        self,
+        q0: np.ndarray,
+        held: tuple[RightLeft, ...],
+        targets: dict[RedundantAxis, float],
+        speed: np.ndarray,
+        accel: np.ndarray,
+        label: str = "CP-hold move",
+    ) -> CPHoldSpec:
+        return CPHoldSpec(
+            held=held,
+            targets=targets,
+            speed=speed,
+            accel=accel,
+            planned_from=q0.copy(),
+            label=label,
+        )
+
+    def vehicle(
+        self,
+        q0: np.ndarray,
+        target: np.ndarray,
+        speed: tuple[float, float],
+        accel: tuple[float, float],
+    ) -> VehicleMoveSpec:
+        return VehicleMoveSpec(
+            target=np.asarray(target, dtype=float),
+            speed=speed,
+            accel=accel,
+            planned_from=q0.copy(),
+            label="vehicle move",
+        )
+
+
+def min_duration(distance: np.ndarray, v_max: np.ndarray, a_max: np.ndarray) -> float:
+    """Shortest time [s] a trapezoidal profile needs for the slowest joint."""
+    worst = 0.0
+    for d, v, a in zip(distance, v_max, a_max, strict=True):
+        if d <= 0.0:
+            continue
+        t = d / v + v / a if d > v * v / a else 2.0 * math.sqrt(d / a)
+        worst = max(worst, t)
+    return worst
+
+
+def _show(value: float, joint: str, view: RobotView) -> str:
+    spec = view.robot.joints[joint]
+    if spec.kind == "revolute":
+        return f"{math.degrees(value):.3f} deg"
+    return f"{1e3 * value:.1f} mm"

@@ -1,0 +1,93 @@
+"""The gateway's view of the robot: the published snapshot, seen through kinematics.
+
+Queries (feedback poses, joints, gripper openings) and motion planning both need the robot's
+kinematics at its measured state. Each :class:`RobotView` owns one :class:`Kinematics`,
+refreshed from the snapshot (joints, original frame, control-point offsets) under a lock;
+the gateway keeps one view for queries and one for planning so a long reachability check
+never holds up a getFeedbackPos call.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+import pinocchio as pin
+
+from controller.daemon.snapshot import Snapshot, SnapshotReader
+from controller.enums import FrameType, RightLeft, UnitType
+from controller.kinematics import Kinematics
+from controller.robot import Robot
+
+
+class RobotView:
+    def __init__(self, robot: Robot, reader: SnapshotReader, hw_joints: list[str]):
+        self.robot = robot
+        self.reader = reader
+        self.kin = Kinematics(robot)
+        self.hw_joints = list(hw_joints)
+        self.hw_index = np.array([self.hw_joints.index(n) for n in self.kin.joint_names])
+        self._lock = threading.Lock()
+        self.arms = self.kin.arms
+
+    def snapshot(self) -> Snapshot:
+        return self.reader.read()
+
+    @contextmanager
+    def at(self, snap: Snapshot, q: np.ndarray | None = None) -> Iterator[Kinematics]:
+        """The kinematics at ``snap`` (or at configuration ``q`` with ``snap``'s frames)."""
+        with self._lock:
+            kin = self.kin
+            for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
+                if side in kin.arms:
+                    off = np.vstack([snap.offsets[k], [0.0, 0.0, 0.0, 1.0]])
+                    kin.set_control_point_offset(side, pin.SE3(off))
+            if snap.hw_state != "unconfigured" or snap.cycle > 0:
+                original = np.vstack([snap.original, [0.0, 0.0, 0.0, 1.0]])
+                if abs(np.linalg.det(original[:3, :3]) - 1.0) < 1e-6:
+                    kin.set_original_frame(pin.SE3(original), snap.original_theta)
+            kin.update(snap.q[self.hw_index] if q is None else q)
+            yield kin
+
+    def measured_q(self, snap: Snapshot) -> np.ndarray:
+        """Kinematic configuration (SI) of a snapshot."""
+        return snap.q[self.hw_index]
+
+    def unit_joint_names(self, unit: UnitType) -> tuple[str, ...]:
+        return self.robot.unit_joints(unit.value)
+
+    def has_unit(self, unit: UnitType) -> bool:
+        return bool(self.unit_joint_names(unit))
+
+    def unit_positions(self, snap: Snapshot, unit: UnitType) -> np.ndarray:
+        """A unit's joints in spec units: deg; vehicle x, y in mm and θ in deg (original
+        frame)."""
+        if unit == UnitType.VEHICLE:
+            with self.at(snap) as kin:
+                x, y, th = kin.vehicle_pose()
+            return np.array([1e3 * x, 1e3 * y, np.degrees(th)])
+        out = []
+        for name in self.unit_joint_names(unit):
+            spec = self.robot.joints[name]
+            value = snap.q[self.hw_joints.index(name)]
+            out.append(np.degrees(value) if spec.kind == "revolute" else 1e3 * value)
+        return np.array(out)
+
+    def pose(self, snap: Snapshot, side: RightLeft, frame: FrameType) -> tuple[pin.SE3, float]:
+        """Control-point pose [m] in ``frame`` and elbow angle [rad] (0 for 6-axis arms)."""
+        with self.at(snap) as kin:
+            pose = kin.pose(side, frame).copy()
+            elbow = kin.elbow_angle(side) if kin.has_elbow(side) else 0.0
+        return pose, elbow
+
+    def gripper_ratio(self, snap: Snapshot, side: RightLeft) -> float | None:
+        """Opening 0 (closed) .. 1 (open) from the gripper's first joint; None: no gripper."""
+        g = next((v for k, v in self.robot.profile.grippers.items() if k == side.name), None)
+        if g is None or g.joints[0] not in self.hw_joints:
+            return None
+        spec = self.robot.joints[g.joints[0]]
+        pos = snap.q[self.hw_joints.index(g.joints[0])]
+        lo, hi = spec.to_si(g.closed[0]), spec.to_si(g.open[0])
+        return float(np.clip((pos - lo) / (hi - lo), 0.0, 1.0))
