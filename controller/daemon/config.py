@@ -85,6 +85,9 @@ class DaemonConfig(_Strict):
     #: Configure the hardware at start-up (state ServoOff); False: stay Unpowered until
     #: servoOn.
     power_on_at_start: bool = True
+    #: Where the gRPC gateway runs: its own process (default; client load cannot disturb the
+    #: loop) or a thread of the control process (for comparison in tools/bench_clients.py).
+    gateway: Literal["process", "thread"] = "process"
     #: gRPC worker threads of the gateway.
     workers: int = Field(default=16, ge=2, le=256)
     security: SecurityConfig = SecurityConfig()

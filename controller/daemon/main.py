@@ -77,6 +77,7 @@ class Daemon:
         self.commands = CommandServer(self.controller, self.runtime)
         self.commands.start()
         self.gateway: subprocess.Popen[str] | None = None
+        self._server: Any = None
         self.address: str | None = None
         self.exit_code = 0
 
@@ -92,6 +93,14 @@ class Daemon:
         self.address = line.split(" ", 1)[1].strip()
         return self.address
 
+    def start_gateway_thread(self) -> str:
+        """The gateway inside this process (comparison only: shares the loop's GIL)."""
+        from controller.service.gateway import start_gateway
+
+        self._server, self.address, _ = start_gateway(self.cfg, self.runtime)
+        assert self.address is not None
+        return self.address
+
     def gateway_alive(self) -> bool:
         return self.gateway is None or self.gateway.poll() is None
 
@@ -104,6 +113,8 @@ class Daemon:
         self.controller.shutdown_requested.set()
 
     def close(self) -> None:
+        if self._server is not None:
+            self._server.stop(0)
         if self.gateway is not None and self.gateway.poll() is None:
             self.gateway.terminate()
             try:
@@ -205,7 +216,10 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, daemon.request_shutdown)
     signal.signal(signal.SIGINT, daemon.request_shutdown)
     try:
-        address = daemon.start_gateway_process()
+        if cfg.gateway == "process":
+            address = daemon.start_gateway_process()
+        else:
+            address = daemon.start_gateway_thread()
     except Exception as exc:
         _log.error("cannot start the gateway: %s", exc)
         daemon.close()
