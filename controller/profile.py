@@ -152,6 +152,8 @@ class RobotProfile(StrictModel):
     body_frame: str
     redundant_axes: RedundantAxes = RedundantAxes()
     vehicle: Vehicle | None = None
+    #: JARA_ARM initial speed ratio (setSpeedCartesian / setSpeedJoint) [%].
+    speed_ratio: Annotated[int, Field(ge=1, le=100)] = 50
 
 
 def _cross_check(p: RobotProfile, model: ModelSource) -> list[str]:
