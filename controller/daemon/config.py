@@ -30,6 +30,9 @@ class LoopConfig(_Strict):
     rate_hz: float = Field(default=500.0, ge=10.0, le=4000.0)
     #: QP back end (controller.qp.solver.make_solver names).
     solver: str = "daqp"
+    #: Write every cycle's wake latency and compute time here (.npz) when the daemon stops
+    #: (benchmarks: tools/bench_clients.py); None: keep only the last second.
+    stats_file: Path | None = None
 
 
 class RealtimeConfig(_Strict):

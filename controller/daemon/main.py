@@ -29,6 +29,7 @@ from controller.daemon import systemd
 from controller.daemon.channel import CommandServer
 from controller.daemon.config import DaemonConfig, load_config, security_problems
 from controller.daemon.control import Controller
+from controller.daemon.cycle_log import CycleLog
 from controller.daemon.logs import setup_logging
 from controller.realtime import apply_realtime, restore
 from controller.robot import load_robot
@@ -72,6 +73,9 @@ class Daemon:
             cfg.loop.solver,
         )
         self.controller.stop_timeout = cfg.stop_timeout_s
+        if cfg.loop.stats_file is not None:
+            loop = self.controller.loop
+            loop.stats = CycleLog(loop.period, loop.stats.capacity)
         (self.runtime / JOINTS_NAME).write_text(json.dumps(list(self.hw.joint_names)))
         (self.runtime / CONFIG_NAME).write_text(cfg.model_dump_json())
         self.commands = CommandServer(self.controller, self.runtime)
@@ -122,6 +126,12 @@ class Daemon:
             except subprocess.TimeoutExpired:
                 self.gateway.kill()
         self.commands.close()
+        stats = self.controller.loop.stats
+        if self.cfg.loop.stats_file is not None and isinstance(stats, CycleLog):
+            try:
+                stats.save(Path(self.cfg.loop.stats_file))
+            except OSError as exc:
+                _log.error("cannot write loop.stats_file %s: %s", self.cfg.loop.stats_file, exc)
         try:
             self.hw.shutdown()
         finally:
