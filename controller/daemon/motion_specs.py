@@ -21,6 +21,7 @@ from controller.kinematics import Kinematics
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
+    DualCartesianMotion,
     JointMotion,
     Motion,
     VehicleMotion,
@@ -95,6 +96,23 @@ class CartesianMoveSpec(MotionSpec):
             self.hold_other,
             self.elbow,
             self.duration,
+        )
+
+
+@dataclass
+class DualCartesianSpec(MotionSpec):
+    """Both control points along straight lines to ``targets``, together."""
+
+    targets: dict[RightLeft, np.ndarray]  #: 4x4 per arm, original frame
+    speed: tuple[float, float]
+    accel: tuple[float, float]
+    elbows: dict[RightLeft, float | None] = field(default_factory=dict)
+    duration: float | None = None
+
+    def build(self, kin: Kinematics, dt: float) -> Motion:
+        paths = {side: LinePath(kin.pose(side), pin.SE3(t)) for side, t in self.targets.items()}
+        return DualCartesianMotion(
+            kin, dt, paths, self.speed, self.accel, self.elbows, self.duration
         )
 
 

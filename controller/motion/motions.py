@@ -16,6 +16,7 @@ motion               use
 ===================  =====================================================================
 JointMotion          joint-space PTP of some joints (unit moves, PTP to an IK solution)
 CartesianMotion      control point along a line or arc; other arm held or frozen
+DualCartesianMotion  both control points along lines, starting and stopping together
 CPHoldMotion         redundant axes move, control point(s) held in the original frame
 VehicleMotion        vehicle unit move (omnidirectional: straight; differential: turn,
                      drive, turn)
@@ -190,6 +191,8 @@ class CartesianMotion(Motion):
         v, a = path.limits(speed, accel)
         if not math.isfinite(v):  # zero-length path
             v, a = 1.0, 1.0
+        #: Limits of the path parameter [1/s, 1/s²].
+        self.profile_limits = (v, a)
         self.profile = PathProfile(dt, v, a, duration)
         self.task = ControlPointTask(side, path.at(0.0))
         self.allowed = dict(allowed)
@@ -235,6 +238,52 @@ class CartesianMotion(Motion):
         if self.elbow is not None and self._elbow_path is not None:
             e0, e1 = float(self._elbow_path.at(s0)[0]), float(self._elbow_path.at(s1)[0])
             self.elbow.set_target(e0, (e1 - e0) / dt)
+
+
+class DualCartesianMotion(Motion):
+    """Both control points along their own straight lines, on one time law (JARA_ARM_DUAL):
+    they start and stop together. Waist and vehicle are frozen; ``elbows`` are optional
+    target elbow angles [rad] per arm. ``speed``/``accel`` as for :class:`CartesianMotion`,
+    met by the arm with the longer path."""
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        dt: float,
+        paths: dict[RightLeft, LinePath],
+        speed: tuple[float, float],
+        accel: tuple[float, float],
+        elbows: dict[RightLeft, float | None] | None = None,
+        duration: float | None = None,
+    ):
+        self.kin = kin
+        self.arms = {
+            side: CartesianMotion(
+                kin, dt, side, path, speed, accel, {}, None, False, (elbows or {}).get(side)
+            )
+            for side, path in paths.items()
+        }
+        v = min(m.profile_limits[0] for m in self.arms.values())
+        a = min(m.profile_limits[1] for m in self.arms.values())
+        self.profile = PathProfile(dt, v, a, duration)
+
+    def setup(self) -> IKSetup:
+        kin = self.kin
+        frozen = np.ones(kin.nv, dtype=bool)
+        tasks: list[Task] = []
+        allowed: dict[RedundantAxis, bool] = {a: False for a in RedundantAxis}
+        for side, motion in self.arms.items():
+            frozen[arm_joints(kin, side)] = False
+            tasks.append(motion.task)
+            if motion.elbow is not None:
+                tasks.append(motion.elbow)
+                allowed[elbow_axis(side)] = True
+        tasks.append(_posture(kin))
+        return IKSetup(tasks, frozen, allowed, {})
+
+    def apply(self, s0: float, s1: float, dt: float) -> None:
+        for motion in self.arms.values():
+            motion.apply(s0, s1, dt)
 
 
 VEHICLE_AXES = (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y, RedundantAxis.VEHICLE_THETA)
