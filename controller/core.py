@@ -31,7 +31,7 @@ from controller.motion.profile import PathProfile
 from controller.qp.ik import IKResult, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
 from controller.robot import Robot
-from hal.interface import HardwareInterface, HardwareState, JointCommand
+from hal.interface import HardwareFault, HardwareInterface, HardwareState, JointCommand
 
 #: A finished motion counts as arrived when every commanded speed is below this [rad/s, m/s].
 SETTLED_SPEED = 1e-5
@@ -109,6 +109,7 @@ class MotionCore:
         self._gripper_motion: dict[RightLeft, GripperMotion] = {}
         self.cycles = 0
         self._settling = 0
+        self._reported_faults: set[HardwareFault] = set()
         self._hold()
 
     # ------------------------------------------------------------------- requests
@@ -283,10 +284,17 @@ class MotionCore:
             self.q = measured.position[self._hw_index].copy()
             self.kin.update(self.q)
             faults = self.hw.faults()
-            if faults and self.state != CoreState.ALARM:
-                for f in faults:
+            # A fault raises its alarm once: after clearAlarms a fault that persists does not
+            # re-raise it (servo_on then fails while the hardware cannot reset).
+            new = [f for f in faults if f not in self._reported_faults]
+            if not faults:
+                self._reported_faults.clear()
+            if new:
+                self._reported_faults.update(new)
+                for f in new:
                     self.alarms.append(Alarm(f.code, AlarmType.FAULT, f.description, f.source))
-                self._enter_alarm()
+                if self.state != CoreState.ALARM:
+                    self._enter_alarm()
             if self.state not in (CoreState.READY, CoreState.BUSY, CoreState.PAUSED):
                 self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
                 return

@@ -20,6 +20,8 @@ from controller.service.gateway import start_gateway
 class TestDaemon:
     """Daemon with the loop in a background thread; ``stubs`` for every service."""
 
+    __test__ = False  # not a test class
+
     def __init__(
         self, robot: str = "smartpal5", hal: str = "ideal", rate: float = 250.0, **sets: Any
     ):

@@ -177,10 +177,16 @@ class JaraArms:
         if snap.core_state == "servo off":
             raise Failure(Code.NOT_SV_ON_ERR, "the servos are off: call servoON first")
 
-    def submit(self, spec: MotionSpec, q_end: np.ndarray) -> dict[str, str]:
-        """Start or queue ``spec``; remember where it leaves the robot."""
+    def submit(
+        self, spec: MotionSpec, q_end: np.ndarray, poses: dict[RightLeft, pin.SE3] | None = None
+    ) -> dict[str, str]:
+        """Start or queue ``spec``; remember where it leaves the robot (configuration, and
+        the commanded poses of Cartesian moves, original frame)."""
         result = self.ctx.call("start", spec=spec, queued=True)
-        self.ctx.planner.remember(q_end)
+        planner = self.ctx.planner
+        if poses is None:
+            planner.tail_poses.clear()
+        planner.remember(q_end, poses)
         if result == "queued":
             return {"comment": "OK (queued behind the running motion)"}
         return {}
@@ -211,6 +217,11 @@ class JaraArms:
     ) -> tuple[pin.SE3, float | None]:
         """Target pose (original frame) and elbow [rad] (None for a 6-axis arm)."""
         current = self.to_arm_frame(kin, side, settings)
+        queued_end = self.ctx.planner.tail_pose(side)
+        if queued_end is not None:  # build on the queued move's commanded end pose
+            current = settings.base_offset.actInv(
+                kin.body_pose().actInv(kin.original_frame * queued_end)
+            )
         goal = relative_pose(current, target.pose, tool_frame=False) if relative else target.pose
         self.check_box(settings, goal, name)
         elbow = None
@@ -253,7 +264,7 @@ class JaraArms:
             duration=duration,
             label=f"{side.name} {'arc' if via else 'linear'} move",
         )
-        return self.submit(spec, q_end)
+        return self.submit(spec, q_end, {side: goal})
 
     def ptp_cartesian(
         self,
@@ -285,7 +296,7 @@ class JaraArms:
             absolute=True,
             strict_duration=False,
         )
-        return self.submit(spec, q_goal)
+        return self.submit(spec, q_goal, {side: goal})
 
     def ptp_joint(
         self,
@@ -353,7 +364,8 @@ class JaraArms:
             planned_from=q0.copy(),
             label="dual linear move",
         )
-        return self.submit(spec, q_end)
+        poses = {side: pin.SE3(goal) for side, goal in goals.items()}
+        return self.submit(spec, q_end, poses)
 
     def dual_ptp(self, goals_q: dict[RightLeft, np.ndarray], snap: Snapshot, q0: np.ndarray):
         """Both arms' joints to ``goals_q`` (kinematic configurations), together."""

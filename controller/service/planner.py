@@ -41,6 +41,7 @@ class Planner:
         self.checker = ReachabilityChecker(view.kin)
         self.lock = threading.RLock()
         self.tail: np.ndarray | None = None
+        self.tail_poses: dict[RightLeft, pin.SE3] = {}
 
     # ------------------------------------------------------------------ base state
     def base_q(self, snap: Snapshot, queued: bool) -> np.ndarray:
@@ -49,10 +50,20 @@ class Planner:
         idle = not snap.moving and snap.queue == 0 and snap.core_state == "ready"
         if queued and not idle and self.tail is not None:
             return self.tail.copy()
+        self.tail_poses.clear()
         return self.view.measured_q(snap).copy()
 
-    def remember(self, q_end: np.ndarray) -> None:
+    def remember(self, q_end: np.ndarray, poses: dict[RightLeft, pin.SE3] | None = None) -> None:
+        """The end of the queue: configuration, and the exact target poses (original frame)
+        of the arms a Cartesian move commanded (the IK end configuration is only as exact as
+        the reachability check; relative moves queued behind build on the commanded pose)."""
         self.tail = q_end.copy()
+        for side, pose in (poses or {}).items():
+            self.tail_poses[side] = pose.copy()
+
+    def tail_pose(self, side: RightLeft) -> pin.SE3 | None:
+        """Commanded end pose of ``side`` of the queued motions (None: use the kinematics)."""
+        return self.tail_poses.get(side)
 
     def set_joint_limits(self, indices: np.ndarray, lower: np.ndarray, upper: np.ndarray):
         self.checker.q_min[indices] = lower
