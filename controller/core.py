@@ -286,12 +286,12 @@ class MotionCore:
             faults = self.hw.faults()
             # A fault raises its alarm once: after clearAlarms a fault that persists does not
             # re-raise it (servo_on then fails while the hardware cannot reset).
-            new = [f for f in faults if f not in self._reported_faults]
+            fresh = [f for f in faults if f not in self._reported_faults]
             if not faults:
                 self._reported_faults.clear()
-            if new:
-                self._reported_faults.update(new)
-                for f in new:
+            if fresh:
+                self._reported_faults.update(fresh)
+                for f in fresh:
                     self.alarms.append(Alarm(f.code, AlarmType.FAULT, f.description, f.source))
                 if self.state != CoreState.ALARM:
                     self._enter_alarm()

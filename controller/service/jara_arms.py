@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -101,6 +103,18 @@ class CarPos:
 def car_pos_arg(msg: pb.CarPosWithElbow, name: str) -> CarPos:
     pose = hg_arg(msg.car_pos, f"{name}.carPos")
     return CarPos(pose, math.radians(finite_arg(msg.elbow, f"{name}.elbow")))
+
+
+@contextmanager
+def unreachable_is_value_err() -> Iterator[None]:
+    """JARA_ARM has no CANNOT_REACH_TARGET_ERR (its -6 means NOT_IMPLEMENTED): an unreachable
+    target is an invalid argument there."""
+    try:
+        yield
+    except Failure as exc:
+        if exc.code == Code.CANNOT_REACH_TARGET_ERR:
+            raise Failure(Code.VALUE_ERR, exc.comment) from None
+        raise
 
 
 class JaraArms:
@@ -249,21 +263,22 @@ class JaraArms:
         ratio = 100.0 if duration is not None else None
         speed, accel = settings.cartesian_speed(ratio)
         allowed = {elbow_axis(side): True} if elbow is not None else {}
-        spec, q_end = planner.cartesian(
-            snap,
-            q0,
-            side,
-            goal,
-            speed,
-            accel,
-            allowed,
-            {},
-            False,
-            elbow=elbow,
-            via=via_pose,
-            duration=duration,
-            label=f"{side.name} {'arc' if via else 'linear'} move",
-        )
+        with unreachable_is_value_err():
+            spec, q_end = planner.cartesian(
+                snap,
+                q0,
+                side,
+                goal,
+                speed,
+                accel,
+                allowed,
+                {},
+                False,
+                elbow=elbow,
+                via=via_pose,
+                duration=duration,
+                label=f"{side.name} {'arc' if via else 'linear'} move",
+            )
         return self.submit(spec, q_end, {side: goal})
 
     def ptp_cartesian(
@@ -280,9 +295,10 @@ class JaraArms:
         with planner.view.at(snap, q0) as kin:
             goal, _ = self._target(kin, side, settings, target, relative, name)
         allowed = {elbow_axis(side): True} if planner.view.kin.has_elbow(side) else {}
-        probe, q_goal = planner.ptp_cartesian(
-            snap, q0, side, goal, allowed, {}, False, None, label=f"{side.name} PTP move"
-        )
+        with unreachable_is_value_err():
+            probe, q_goal = planner.ptp_cartesian(
+                snap, q0, side, goal, allowed, {}, False, None, label=f"{side.name} PTP move"
+            )
         joints = self.joints(side)
         v, a = settings.joint_speed(100.0 if duration is not None else None)
         spec = planner.joint(
@@ -349,9 +365,10 @@ class JaraArms:
             speeds.append(speed)
             accels.append(accel)
             allowed = {elbow_axis(side): True} if elbow is not None else {}
-            _, q_side = planner.cartesian(
-                snap, q0, side, goal, speed, accel, allowed, {}, False, elbow=elbow
-            )
+            with unreachable_is_value_err():
+                _, q_side = planner.cartesian(
+                    snap, q0, side, goal, speed, accel, allowed, {}, False, elbow=elbow
+                )
             joints = self.joints(side)
             q_end[joints] = q_side[joints]
             goals[side] = goal.homogeneous.copy()
@@ -391,5 +408,6 @@ class JaraArms:
         allowed: dict[RedundantAxis, bool] = (
             {elbow_axis(side): True} if planner.view.kin.has_elbow(side) else {}
         )
-        _, q_goal = planner.ptp_cartesian(snap, q0, side, goal, allowed, {}, False, None)
+        with unreachable_is_value_err():
+            _, q_goal = planner.ptp_cartesian(snap, q0, side, goal, allowed, {}, False, None)
         return q_goal
