@@ -48,9 +48,10 @@ class Planner:
         """Configuration a new motion starts from: the measured one, or (queued behind
         running/queued motions) the planned end of the queue."""
         idle = not snap.moving and snap.queue == 0 and snap.core_state == "ready"
-        if queued and not idle and self.tail is not None:
-            return self.tail.copy()
-        self.tail_poses.clear()
+        if queued:
+            if not idle and self.tail is not None:
+                return self.tail.copy()
+            self.tail_poses.clear()  # nothing queued: plan from the measured state
         return self.view.measured_q(snap).copy()
 
     def remember(self, q_end: np.ndarray, poses: dict[RightLeft, pin.SE3] | None = None) -> None:
