@@ -13,8 +13,9 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev,bench]'
 	touch $(STAMP)
 
-run: $(STAMP)  ## render the four robots at their home pose into out/robots/
+run: $(STAMP)  ## the main job: imotiond on SmartPal V in MuJoCo + a scripted session -> out/demo/
 	$(PY) tools/render_robots.py --out out/robots
+	$(PY) tools/demo_session.py --out out/demo
 
 test: $(STAMP)  ## the whole test suite (what CI runs)
 	$(PY) -m pytest -q
