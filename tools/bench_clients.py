@@ -1,0 +1,361 @@
+#!/usr/bin/env python3
+"""Client-load benchmark: does gRPC traffic disturb imotiond's control loop?
+
+Usage: python tools/bench_clients.py [--seconds 10] [--clients 32] [--procs 4] [--rate 1000]
+                                     [--modes process,thread]
+
+For each gateway mode (``process``: gRPC in its own process, the shipped design; ``thread``:
+gRPC inside the control process, the peer) it starts ``imotiond --hal sim`` at ``--rate``
+(SCHED_FIFO when allowed, e.g. as root) with ``loop.stats_file`` set, servos on and keeps a
+linear hand move running (100 mm up and down, one after the other). Then:
+
+1. *idle*: ``--seconds`` with only the move running;
+2. *loaded*: ``--seconds`` with ``--clients`` concurrent clients (``--procs`` processes of
+   threads, one channel each, so the client side is not GIL-bound) calling getState and
+   getFeedbackPosCartesian alternately as fast as they can.
+
+The loop's wake latency (wake time minus deadline) and compute time of every cycle come from
+the daemon's ``loop.stats_file`` (written at SIGTERM); each phase's cycles are found from the
+cycle counter of Monitor.StreamState at its start and end. Prints per mode and phase the wake
+latency p50/p99/max, cycles late by more than half a period, compute p99 and the client call
+rate, the p99 rise under load against the target (<= 30 us, no late cycle), and as the last
+line a JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import grpc
+import numpy as np
+
+from controller.rpc import imotion_pb2 as pb
+from controller.rpc import imotion_pb2_grpc as pb_grpc
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Acceptance: p99 wake-latency rise under load [us].
+MAX_P99_RISE_US = 30.0
+START_TIMEOUT = 90.0
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+# ---------------------------------------------------------------------- client processes
+def client_main(address: str, threads: int, start_at: float, seconds: float) -> int:
+    """One client process: ``threads`` threads hammering until ``start_at + seconds``
+    (monotonic clock, shared by all processes on Linux). Prints {"calls", "errors"}."""
+    counts = [0] * threads
+    errors = [0] * threads
+
+    def worker(k: int) -> None:
+        channel = grpc.insecure_channel(address)
+        stub = pb_grpc.IntegratedMotionStub(channel)
+        state, pose = pb.GetStateRequest(), pb.GetFeedbackPosCartesianRequest(type=pb.RIGHT)
+        stub.GetState(state, timeout=30.0)  # connected before the start
+        while time.monotonic() < start_at:
+            time.sleep(0.001)
+        end = start_at + seconds
+        n = 0
+        while time.monotonic() < end:
+            try:
+                if n & 1:
+                    stub.GetFeedbackPosCartesian(pose, timeout=5.0)
+                else:
+                    stub.GetState(state, timeout=5.0)
+                counts[k] += 1
+            except grpc.RpcError:
+                errors[k] += 1
+            n += 1
+        channel.close()
+
+    pool = [threading.Thread(target=worker, args=(k,)) for k in range(threads)]
+    for t in pool:
+        t.start()
+    for t in pool:
+        t.join()
+    print(json.dumps({"calls": sum(counts), "errors": sum(errors)}), flush=True)
+    return 0
+
+
+# ---------------------------------------------------------------------- the daemon side
+class Daemon:
+    def __init__(self, mode: str, rate: float, stats: Path, log: Path):
+        self.address = f"127.0.0.1:{free_port()}"
+        self.stats = stats
+        cmd = [sys.executable, "-m", "controller.daemon.main", "--robot", "smartpal5"]
+        cmd += ["--hal", "sim", "--rate", f"{rate:g}", "--listen", self.address]
+        cmd += ["--set", f"gateway={mode}", "--set", f"loop.stats_file={stats}"]
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        self._log = open(log, "w")  # closed in stop()
+        self.log_path = log
+        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=self._log, stderr=self._log)
+        self.channel = grpc.insecure_channel(self.address)
+        self.a = pb_grpc.IntegratedMotionStub(self.channel)
+        self.monitor = pb_grpc.MonitorStub(self.channel)
+
+    def wait_ready(self) -> None:
+        end = time.monotonic() + START_TIMEOUT
+        while time.monotonic() < end:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"imotiond exited early: see {self.log_path}")
+            try:
+                self.a.GetState(pb.GetStateRequest(), timeout=1.0)
+                return
+            except grpc.RpcError:
+                time.sleep(0.2)
+        raise RuntimeError(f"imotiond did not answer within {START_TIMEOUT:g} s")
+
+    def cycles(self) -> int:
+        """The loop's cycle counter now (one StreamState sample)."""
+        stream = self.monitor.StreamState(pb.StreamStateRequest(rate_hz=1000.0), timeout=30.0)
+        try:
+            return int(next(iter(stream)).loop.cycles)
+        finally:
+            stream.cancel()
+
+    def stop(self) -> int | None:
+        self.channel.close()
+        self.proc.send_signal(signal.SIGTERM)
+        try:
+            code: int | None = self.proc.wait(15.0)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+            code = None
+        self._log.close()
+        return code
+
+
+class Mover:
+    """Keeps a linear move of the right hand running: 100 mm up, 100 mm down, ..."""
+
+    def __init__(self, address: str):
+        self.channel = grpc.insecure_channel(address)
+        self.a = pb_grpc.IntegratedMotionStub(self.channel)
+        self.done = threading.Event()
+        self.moves = 0
+        self.refused: list[str] = []
+        self.thread = threading.Thread(target=self._run, daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def _run(self) -> None:
+        sign = 1.0
+        while not self.done.is_set():
+            try:
+                if self.a.IsMoving(pb.IsMovingRequest(), timeout=10.0).is_moving:
+                    time.sleep(0.02)
+                    continue
+                request = pb.MoveLinearCartesianRelRequest(
+                    type=pb.RIGHT,
+                    frame_type=pb.BASE_FRAME,
+                    rel_hg_mat=pb.HgMatrix(m=[1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 100.0 * sign]),
+                    speed=pb.CartesianSpeed(translation=50.0, rotation=30.0),
+                    accel=pb.CartesianAccel(translation=100.0, rotation=60.0),
+                )
+                rid = self.a.MoveLinearCartesianRel(request, timeout=30.0).return_id
+            except grpc.RpcError as exc:
+                self.refused.append(f"{exc.code().name}")
+                time.sleep(0.1)
+                continue
+            if rid.id == 0:
+                self.moves += 1
+                sign = -sign
+                time.sleep(0.1)  # the snapshot shows the move a cycle after the OK
+            else:
+                self.refused.append(f"{rid.id}: {rid.comment}")
+                time.sleep(0.1)
+
+    def stop(self) -> None:
+        self.done.set()
+        self.thread.join(30.0)
+        self.channel.close()
+
+
+def phase_stats(wake: np.ndarray, compute: np.ndarray, period_us: float) -> dict[str, Any]:
+    if wake.size == 0:
+        return {"cycles": 0}
+    p50, p99 = np.percentile(wake, [50.0, 99.0])
+    return {
+        "cycles": int(wake.size),
+        "wake_p50_us": round(float(p50), 1),
+        "wake_p99_us": round(float(p99), 1),
+        "wake_max_us": round(float(wake.max()), 1),
+        "late": int(np.count_nonzero(wake > 0.5 * period_us)),
+        "compute_p99_us": round(float(np.percentile(compute, 99.0)), 1),
+        "compute_max_us": round(float(compute.max()), 1),
+        "over_period": int(np.count_nonzero(wake + compute > period_us)),
+    }
+
+
+def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
+    stats_path = work / f"{mode}.npz"
+    daemon = Daemon(mode, args.rate, stats_path, work / f"{mode}.log")
+    mover: Mover | None = None
+    result: dict[str, Any] = {"mode": mode}
+    try:
+        daemon.wait_ready()
+        rid = daemon.a.ServoOn(pb.ServoOnRequest()).return_id
+        if rid.id != 0:
+            raise RuntimeError(f"servoOn refused: {rid.comment}")
+        mover = Mover(daemon.address)
+        mover.start()
+        time.sleep(args.warmup)
+        c0 = daemon.cycles()
+        time.sleep(args.seconds)
+        c1 = daemon.cycles()
+        start_at = time.monotonic() + args.client_start
+        threads = -(-args.clients // args.procs)
+        clients = [
+            subprocess.Popen(
+                [
+                    sys.executable,
+                    __file__,
+                    "--client",
+                    daemon.address,
+                    "--threads",
+                    str(threads),
+                    "--start-at",
+                    repr(start_at),
+                    "--seconds",
+                    str(args.seconds),
+                ],
+                stdout=subprocess.PIPE,
+                text=True,
+                cwd=ROOT,
+            )
+            for _ in range(args.procs)
+        ]
+        time.sleep(max(0.0, start_at - time.monotonic()))
+        c2 = daemon.cycles()
+        time.sleep(max(0.0, start_at + args.seconds - time.monotonic()))
+        c3 = daemon.cycles()
+        calls = errors = 0
+        for proc in clients:
+            out, _ = proc.communicate(timeout=120.0)
+            line = out.strip().splitlines()[-1] if out.strip() else "{}"
+            data = json.loads(line)
+            calls += int(data.get("calls", 0))
+            errors += int(data.get("errors", 0))
+        result["client_calls_per_s"] = round(calls / args.seconds, 1)
+        result["client_errors"] = errors
+        result["clients"] = threads * args.procs
+    finally:
+        if mover is not None:
+            mover.stop()
+            result["moves"] = mover.moves
+            result["moves_refused"] = mover.refused[:5]
+        result["exit_code"] = daemon.stop()
+    data = np.load(stats_path)
+    first = int(data["first_cycle"])
+    period_us = float(data["period_us"])
+    wake, compute = data["wake_us"], data["compute_us"]
+    for name, (a, b) in {"idle": (c0, c1), "loaded": (c2, c3)}.items():
+        sl = slice(max(0, a - first), max(0, b - first))
+        result[name] = phase_stats(wake[sl], compute[sl], period_us)
+    result["p99_rise_us"] = round(
+        result["loaded"]["wake_p99_us"] - result["idle"]["wake_p99_us"], 1
+    )
+    result["pass"] = bool(
+        result["p99_rise_us"] <= MAX_P99_RISE_US and result["loaded"]["late"] == 0
+    )
+    warnings = [
+        line.strip()
+        for line in (work / f"{mode}.log").read_text().splitlines()
+        if "level=warning" in line or "level=error" in line
+    ]
+    result["daemon_warnings"] = warnings[:5]
+    return result
+
+
+def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None:
+    period = 1e6 / args.rate
+    print(
+        f"\n{args.rate:g} Hz (period {period:.0f} us), {args.seconds:g} s per phase, "
+        f"{args.clients} clients in {args.procs} processes, a linear move always running"
+    )
+    head = (
+        f"{'gateway':8s} {'phase':7s} {'cycles':>7s} {'wake p50':>9s} {'p99':>7s} {'max':>8s} "
+        f"{'late>T/2':>9s} {'compute p99':>12s} {'calls/s':>9s}"
+    )
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        for phase in ("idle", "loaded"):
+            s = r[phase]
+            calls = f"{r.get('client_calls_per_s', 0):9.0f}" if phase == "loaded" else f"{0:9d}"
+            print(
+                f"{r['mode']:8s} {phase:7s} {s['cycles']:7d} {s['wake_p50_us']:9.1f} "
+                f"{s['wake_p99_us']:7.1f} {s['wake_max_us']:8.1f} {s['late']:9d} "
+                f"{s['compute_p99_us']:12.1f} {calls}"
+            )
+    print()
+    for r in results:
+        verdict = "PASS" if r["pass"] else "FAIL"
+        print(
+            f"{r['mode']:8s} p99 rise under load {r['p99_rise_us']:+.1f} us (limit "
+            f"{MAX_P99_RISE_US:g}), late cycles {r['loaded']['late']}: {verdict}; "
+            f"{r.get('moves', 0)} moves, daemon exit {r['exit_code']}"
+        )
+        for w in r["daemon_warnings"]:
+            print(f"         daemon: {w}")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="per phase [s]")
+    parser.add_argument("--clients", type=int, default=32)
+    parser.add_argument("--procs", type=int, default=4, help="client processes")
+    parser.add_argument("--rate", type=float, default=1000.0, help="loop rate [Hz]")
+    parser.add_argument("--modes", default="process,thread")
+    parser.add_argument("--warmup", type=float, default=2.0, help="[s] before measuring")
+    parser.add_argument("--client-start", type=float, default=3.0, help=argparse.SUPPRESS)
+    parser.add_argument("--client", metavar="ADDRESS", help=argparse.SUPPRESS)
+    parser.add_argument("--threads", type=int, default=8, help=argparse.SUPPRESS)
+    parser.add_argument("--start-at", type=float, default=0.0, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.client:
+        return client_main(args.client, args.threads, args.start_at, args.seconds)
+    modes = [m.strip() for m in args.modes.split(",") if m.strip()]
+    bad = [m for m in modes if m not in ("process", "thread")]
+    if bad or args.procs < 1 or args.clients < 1:
+        print(f"--modes: {bad} not in process, thread (or --procs/--clients < 1)", file=sys.stderr)
+        return 2
+    results = []
+    with tempfile.TemporaryDirectory(prefix="bench_clients-") as tmp:
+        for mode in modes:
+            print(f"running gateway={mode} ...", flush=True)
+            results.append(run_mode(mode, args, Path(tmp)))
+    print_table(results, args)
+    summary = {
+        "rate_hz": args.rate,
+        "seconds": args.seconds,
+        "clients": args.clients,
+        "procs": args.procs,
+        "max_p99_rise_us": MAX_P99_RISE_US,
+        **{r["mode"]: {k: v for k, v in r.items() if k != "mode"} for r in results},
+    }
+    print(json.dumps(summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
