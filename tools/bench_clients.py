@@ -258,6 +258,7 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         result["client_calls_per_s"] = round(calls / args.seconds, 1)
         result["client_errors"] = errors
         result["clients"] = threads * args.procs
+        result["phase_cycles"] = [c0, c1, c2, c3]
     finally:
         if mover is not None:
             mover.stop()
@@ -326,6 +327,7 @@ def main() -> int:
     parser.add_argument("--procs", type=int, default=4, help="client processes")
     parser.add_argument("--rate", type=float, default=1000.0, help="loop rate [Hz]")
     parser.add_argument("--modes", default="process,thread")
+    parser.add_argument("--keep", type=Path, help="keep the daemons' logs and stats files here")
     parser.add_argument("--warmup", type=float, default=2.0, help="[s] before measuring")
     parser.add_argument("--client-start", type=float, default=3.0, help=argparse.SUPPRESS)
     parser.add_argument("--client", metavar="ADDRESS", help=argparse.SUPPRESS)
@@ -341,9 +343,13 @@ def main() -> int:
         return 2
     results = []
     with tempfile.TemporaryDirectory(prefix="bench_clients-") as tmp:
+        work = Path(tmp)
+        if args.keep is not None:
+            work = args.keep.resolve()
+            work.mkdir(parents=True, exist_ok=True)
         for mode in modes:
             print(f"running gateway={mode} ...", flush=True)
-            results.append(run_mode(mode, args, Path(tmp)))
+            results.append(run_mode(mode, args, work))
     print_table(results, args)
     summary = {
         "rate_hz": args.rate,
