@@ -173,7 +173,10 @@ class DriveProfile(StrictModel):
 
     def following_window(self, name: str) -> float:
         """Following-error window of drive ``name`` in SI [rad] or [m]."""
-        drive = self.drives[name]
+        return self.following_window_of(self.drives[name])
+
+    def following_window_of(self, drive: DriveConfig) -> float:
+        """Following-error window of ``drive`` in SI [rad] or [m]."""
         if drive.revolute:
             return math.radians(self.following_error.window_deg)
         return self.following_error.window_m
