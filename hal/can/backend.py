@@ -130,6 +130,7 @@ class CanBackend(HardwareInterface):
         sdo_timeout: float = 0.3,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        bus_factory: Callable[[str, dict[str, Any]], can.BusABC] | None = None,
     ):
         if not (math.isfinite(dt) and dt > 0.0):
             raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
@@ -144,6 +145,11 @@ class CanBackend(HardwareInterface):
         self.sdo_timeout = sdo_timeout
         self._clock = clock
         self._sleep = sleep
+        self._bus_factory = bus_factory or (lambda _name, kwargs: open_bus(kwargs))
+        #: The in-process drive emulator of ``--hal hil`` (None otherwise).
+        self.emulator: Any = None
+        #: Called after the buses are closed in :meth:`shutdown` (e.g. to stop an emulator).
+        self.on_shutdown: list[Callable[[], None]] = []
         self._bus_options = dict(bus_options or {})
         for name in self._bus_options:
             if name not in profile.buses:
@@ -373,6 +379,9 @@ class CanBackend(HardwareInterface):
                     log.warning("quick stop at shutdown failed: %s", exc)
             self._close_ports()
             self._state = HardwareState.FINALIZED
+            for hook in self.on_shutdown:
+                hook()
+            self.on_shutdown.clear()
 
     # ------------------------------------------------------------------------------ cycle
     def read(self) -> JointState:
@@ -411,7 +420,7 @@ class CanBackend(HardwareInterface):
         for name in self.profile.buses:
             kwargs = self.bus_kwargs(name)
             try:
-                bus = open_bus(kwargs)
+                bus = self._bus_factory(name, kwargs)
             except Exception as exc:
                 raise DriveError(
                     [
@@ -454,13 +463,13 @@ class CanBackend(HardwareInterface):
             port.bus.send(msg, timeout=0.0 if port.kwargs.get("interface") == "virtual" else None)
         except (can.CanError, OSError, ValueError) as exc:
             port.failed = True
-            self._enter_fault(
-                [
-                    Supervisor.bus_error(
-                        port.name, f"send of 0x{msg.arbitration_id:03X} failed: {exc}"
-                    )
-                ]
-            )
+            what = f"send of 0x{msg.arbitration_id:03X} failed: {exc}"
+            try:
+                off = port.bus.state is can.BusState.ERROR
+            except Exception:  # interfaces without a state
+                off = False
+            fault = Supervisor.bus_off if off else Supervisor.bus_error
+            self._enter_fault([fault(port.name, what)])
             return False
         self.frames_sent[port.name] += 1
         return True
