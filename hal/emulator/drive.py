@@ -68,12 +68,16 @@ ERR_PROFILE = 0x20
 ERR_MANUFACTURER = 0x80
 
 CSP_MODE = 8
+#: A fault reaction or quick stop no SYNC ends finishes after this long [s].
+REACTION_TIMEOUT = 0.05
 FOLLOWING_ERROR_OFF = 0xFFFF_FFFF
 ABORT_VALUE_RANGE = 0x0609_0030
 ABORT_WRITE_READ_ONLY = 0x0601_0002
 _EMCY = struct.Struct("<HB5s")
 _TPDOS = ((0x1800, 0x1A00), (0x1801, 0x1A01), (0x1802, 0x1A02), (0x1803, 0x1A03))
 _RPDOS = ((0x1400, 0x1600), (0x1401, 0x1601), (0x1402, 0x1602), (0x1403, 0x1603))
+
+_REACTIONS = (PowerState.FAULT_REACTION_ACTIVE, PowerState.QUICK_STOP_ACTIVE)
 
 #: Sends one CAN frame: (11-bit identifier, data).
 Sender = Callable[[int, bytes], None]
@@ -145,6 +149,8 @@ class EmulatedDrive:
         self._abort_option = 1
         self._outside_since: float | None = None
         self._last_state = self.sm.state
+        self._reaction_cycles = 0  # samples taken in a fault reaction / quick stop
+        self._reaction_since: float | None = None
         self._reset_communication()
         self._reset_application()
         # SDO answers go through the drive's sender, so injected faults apply to them too.
@@ -222,8 +228,10 @@ class EmulatedDrive:
     # ---------------------------------------------------------------------------- cycle
 
     def latch(self) -> None:
-        """SYNC: end running reactions, then apply the RPDOs received since the last SYNC."""
-        self.sm.complete_reactions()
+        """SYNC: end reactions a TPDO has shown, then apply the RPDOs received since."""
+        if self._reaction_cycles:
+            self.sm.complete_reactions()
+            self._reaction_cycles = 0
         fresh_target = False
         if self.nmt_state == NMT_OPERATIONAL:
             for i, data in enumerate(self._rpdo_data):
@@ -270,6 +278,8 @@ class EmulatedDrive:
         if self.silent:
             return
         self._supervise(sim_time)
+        reacting = self.sm.state in _REACTIONS
+        self._reaction_cycles = self._reaction_cycles + 1 if reacting else 0
         if self.nmt_state != NMT_OPERATIONAL:
             return
         for layout in self._tpdo_layouts:
@@ -288,8 +298,18 @@ class EmulatedDrive:
             self._send(cob_id, data)
 
     def tick(self, now: float) -> None:
-        """Time passes: heartbeat production and the master-heartbeat watchdog."""
+        """Time passes: heartbeat production, the master-heartbeat watchdog, and reactions
+        that no SYNC ends (they end after :data:`REACTION_TIMEOUT`)."""
         self._now = now
+        if self.sm.state in _REACTIONS:
+            if self._reaction_since is None:
+                self._reaction_since = now
+            elif now - self._reaction_since > REACTION_TIMEOUT:
+                self.sm.complete_reactions()
+                self._after_state_change(False)
+                self._reaction_since = None
+        else:
+            self._reaction_since = None
         if self._producer_period > 0 and now >= self._next_heartbeat:
             self._next_heartbeat = max(self._next_heartbeat + self._producer_period, now)
             if not (self.silent or self.heartbeat_muted):

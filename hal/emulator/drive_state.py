@@ -21,9 +21,10 @@ States and transitions follow CiA 402 (IEC 61800-7-201), numbered as in the stan
     Quick stop active   --16 (enable operation, option code 5..8)--> Operation enabled
 
 "Switch on + enable operation" (0x0F) in Ready to switch on takes 3 and 4 at once, as the
-standard allows. Timing is the emulator's: the fault reaction and the quick stop ramp each
-take one cycle (:meth:`DriveStateMachine.complete_reactions` is called once per SYNC, after the
-physics step), so Fault reaction active and Quick stop active are visible in one TPDO.
+standard allows. Timing is the emulator's: the fault reaction and the quick stop ramp end
+(:meth:`DriveStateMachine.complete_reactions`) at the first SYNC after a TPDO has shown them,
+so Fault reaction active and Quick stop active are each visible in exactly one TPDO (the
+drive ends them after 50 ms when no SYNC comes, see :mod:`hal.emulator.drive`).
 
 Statusword (0x6041) bits: 0 ready to switch on, 1 switched on, 2 operation enabled, 3 fault,
 4 voltage enabled, 5 quick stop (1 in Ready to switch on, Switched on and Operation
