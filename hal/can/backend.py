@@ -285,6 +285,7 @@ class CanBackend(HardwareInterface):
             self._supervisor.reset(now)
             self._send_heartbeat(now, force=True)
             self._state = HardwareState.INACTIVE
+            self._send_cycle(None)  # a first SYNC: the first read() has feedback
 
     def activate(self) -> None:
         """Enable every drive holding its position (bounded blocking). INACTIVE -> ACTIVE."""
@@ -489,6 +490,8 @@ class CanBackend(HardwareInterface):
         self._checked_target[:] = self._target
         for port in self._ports:
             for i in port.drives:
+                if not self._seen[i]:
+                    continue  # no RPDO before the drive's first feedback (target unknown)
                 m = self._masters[i]
                 cw = m.controlword(self._sw[i] if self._seen[i] else None)
                 msg = self._rpdo[i]
