@@ -18,13 +18,34 @@ SDO_DOWNLOAD = {1: 0x2F, 2: 0x2B, 4: 0x23}  # expedited download, n bytes
 SDO_UPLOAD = 0x40
 
 
-class FrameMaster:
-    """The master's side of bus ``bus`` of ``emulator``, in lockstep by hand."""
+class FakeClock:
+    """The emulator's clock in a test: time [s] moves only when the test says so."""
 
-    def __init__(self, emulator: DriveEmulator, bus: str):
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+class FrameMaster:
+    """The master's side of bus ``bus`` of ``emulator``, in lockstep by hand.
+
+    ``clock`` must be the emulator's clock; :meth:`cycle` advances it by ``dt``.
+    """
+
+    def __init__(self, emulator: DriveEmulator, bus: str, clock: FakeClock):
         self.emulator = emulator
         self.bus = emulator.open_master_bus(bus)
-        self.now = 0.0
+        self.clock = clock
+
+    @property
+    def now(self) -> float:
+        return self.clock.now
+
+    @now.setter
+    def now(self, value: float) -> None:
+        self.clock.now = value
 
     def send(self, can_id: int, data: bytes | list[int] = b"") -> None:
         self.bus.send(can.Message(arbitration_id=can_id, data=bytes(data), is_extended_id=False))

@@ -17,7 +17,7 @@ from hal.emulator.drive_state import (
     decode_statusword,
 )
 from hal.emulator.emulator import DriveEmulator
-from tests.emulator_support import FrameMaster, emcy, state_of, tpdo1
+from tests.emulator_support import FakeClock, FrameMaster, emcy, state_of, tpdo1
 
 NODE = 1
 SOD = PowerState.SWITCH_ON_DISABLED
@@ -50,9 +50,10 @@ def pa10():
 
 @pytest.fixture
 def rig(pa10):
-    emulator = DriveEmulator(pa10, clock=lambda: 0.0)
+    clock = FakeClock()
+    emulator = DriveEmulator(pa10, clock=clock)
     emulator.open()
-    master = FrameMaster(emulator, "arm_a")
+    master = FrameMaster(emulator, "arm_a", clock)
     master.nmt(0x01)
     yield emulator, master
     master.close()

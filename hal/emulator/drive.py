@@ -13,10 +13,14 @@ What it does, per CiA 301 / CiA 402 and ``docs/can.md``:
   dictionary) and reset communication (0x1000-0x1FFF). SDO and EMCY are served in
   PRE-OPERATIONAL and OPERATIONAL, PDOs in OPERATIONAL only, heartbeat in every state.
 * **Heartbeat**: producer 0x1017 [ms]; consumer 0x1016:1 = ``(node << 16) | ms`` monitors the
-  master from its first heartbeat on. A loss sends EMCY 0x8130 (error register bit 4) and
-  reacts per 0x6007 (0 none, 1 fault, 2 disable voltage, 3 quick stop).
+  master from its first heartbeat on. A loss sends EMCY 0x8130 (error register bit 4,
+  statusword warning bit 7) and, while the motor is powered (Operation enabled, Quick stop
+  active), reacts per 0x6007: 0 none, 1 fault, 2 disable voltage, 3 quick stop. The warning
+  and error clear when the master's heartbeat comes back (a fault stays until reset). NMT
+  stop is handled the same way (no EMCY: a stopped node sends none).
 * **PDOs**: RPDOs are latched on SYNC (every transmission type); TPDOs with transmission
-  type n = 1..240 go out on every n-th SYNC, types 0, 254 and 255 on every SYNC.
+  type n = 1..240 go out on every n-th SYNC, types 0, 254 and 255 on every SYNC (no event
+  timer, no inhibit time). A SYNC COB-ID (0x1005) per drive is honoured.
 * **CSP**: in Operation enabled the drive follows 0x607A. On entering it without a fresh
   target the set-point is the actual position. Quick stop and fault reaction hold the
   position the drive had when they started.

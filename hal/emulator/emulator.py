@@ -69,7 +69,10 @@ class _Port:
         self.bus: can.BusABC | None = None
         self.bus_off = False
         self.routes: dict[int, list[Handler]] = {}
-        self.sync_ids: frozenset[int] = frozenset()
+        #: SYNC COB-ID -> positions in :attr:`drives` of the drives it synchronises.
+        self.sync_groups: dict[int, list[int]] = {}
+        #: Per drive: latched at a SYNC of the open cycle.
+        self.pending: list[bool] = []
         self.dirty = True
         self.synced = False
         self.send_errors = 0
@@ -92,7 +95,10 @@ class _Port:
             for can_id, handler in drive.routes().items():
                 routes.setdefault(can_id, []).append(handler)
         self.routes = routes
-        self.sync_ids = frozenset(d.sync_cob_id for d in self.drives)
+        groups: dict[int, list[int]] = {}
+        for k, drive in enumerate(self.drives):
+            groups.setdefault(drive.sync_cob_id, []).append(k)
+        self.sync_groups = groups
         self.dirty = False
 
 
@@ -141,6 +147,8 @@ class DriveEmulator:
             port.drives.append(drive)
             port.indices.append(len(self.drives))
             self.drives[name] = drive
+        for port in self._ports.values():
+            port.pending = [False] * len(port.drives)
         self._order = list(self.drives.values())  # plant order = profile order
         self.plant = Plant(self.robot, self.profile, self.period)
         self.plant.start()
@@ -262,9 +270,10 @@ class DriveEmulator:
     # ------------------------------------------------------------------- synchronous API
 
     def poll(self, now: float | None = None) -> int:
-        """Handle every frame waiting on every bus, then tick heartbeats; frames handled."""
+        """Tick heartbeats at ``now``, then handle every frame waiting on every bus; how many."""
         handled = 0
         with self._lock:
+            self._tick(self._clock() if now is None else now)
             for port in self._ports.values():
                 bus = port.bus
                 if bus is None:
@@ -275,7 +284,6 @@ class DriveEmulator:
                         break
                     self._process(port, msg)
                     handled += 1
-            self._tick(self._clock() if now is None else now)
         return handled
 
     def process(self, bus: str, msg: can.Message) -> None:
@@ -321,8 +329,9 @@ class DriveEmulator:
         if port.dirty:
             port.rebuild()
         can_id = msg.arbitration_id
-        if can_id in port.sync_ids:
-            self._sync(port)
+        group = port.sync_groups.get(can_id)
+        if group is not None:
+            self._sync(port, group)
             if self._expected <= {n for n, p in self._ports.items() if p.synced}:
                 self._complete_cycle()
             return
@@ -333,13 +342,20 @@ class DriveEmulator:
             for handler in handlers:
                 handler(data, now)
 
-    def _sync(self, port: _Port) -> None:
+    def _sync(self, port: _Port, group: list[int] | None = None) -> None:
         if port.bus_off:
             return
-        if port.synced:  # a second SYNC before the other buses: close the pending cycle
-            self._complete_cycle()
-        for drive in port.drives:
-            drive.latch()
+        if port.dirty:
+            port.rebuild()
+        if group is None:
+            group = list(range(len(port.drives)))
+        pending = port.pending
+        if port.synced and any(pending[k] for k in group):
+            self._complete_cycle()  # a second SYNC before the other buses: close the cycle
+        drives = port.drives
+        for k in group:
+            drives[k].latch()
+            pending[k] = True
         port.synced = True
 
     def _complete_cycle(self) -> None:
@@ -356,12 +372,14 @@ class DriveEmulator:
         synced = set()
         for name, port in self._ports.items():
             if port.synced:
-                for i, drive in zip(port.indices, port.drives, strict=True):
-                    drive.sample(positions[i], velocities[i], sim_time)
-                port.synced = False
                 synced.add(name)
-            else:  # no SYNC here this cycle: the joints moved, nothing is sent
-                for i, drive in zip(port.indices, port.drives, strict=True):
+                port.synced = False
+            pending = port.pending
+            for k, (i, drive) in enumerate(zip(port.indices, port.drives, strict=True)):
+                if pending[k]:
+                    drive.sample(positions[i], velocities[i], sim_time)
+                    pending[k] = False
+                else:  # no SYNC for this drive this cycle: its joint moved, nothing is sent
                     drive.actual, drive.velocity = wrap_i32(positions[i]), 0
         self._expected = synced
         self._cycles += 1
@@ -382,6 +400,7 @@ class DriveEmulator:
         port = self._ports[bus]
         port.bus_off = on
         port.synced = False
+        port.pending = [False] * len(port.drives)
         for wrapped in self._master_buses[bus]:
             wrapped.bus_off = on
         self._expected.discard(bus)
