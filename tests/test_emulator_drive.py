@@ -104,7 +104,7 @@ def test_sdo_unknown_object_is_refused(remote):
 
 def test_pdo_mapping_with_canopens_pdo_api(remote):
     """The master's set-up path: read, remap TPDO1, enable TPDO2, save; then operate."""
-    emulator, network, node = remote
+    _, network, node = remote
     node.tpdo.read()
     node.rpdo.read()
     assert [v.index for v in node.rpdo[1].map] == [0x6040, 0x607A]
@@ -293,7 +293,7 @@ def test_fault_records_error_code_register_and_history(rig):
 
 
 def test_csp_target_is_followed_and_following_error_trips_after_its_time(rig):
-    emulator, master = rig
+    _, master = rig
     master.sdo_write(NODE, 0x6065, 0, 20000, 4)  # window [counts]
     master.sdo_write(NODE, 0x6066, 0, 10, 2)  # 10 ms
     position = _enable(master)
@@ -325,7 +325,7 @@ def test_following_error_window_off_never_trips(rig):
 
 
 def test_quick_stop_holds_the_position_whatever_the_target(rig):
-    emulator, master = rig
+    _, master = rig
     master.sdo_write(NODE, 0x605A, 0, 6, 2)  # stay in quick stop
     position = _enable(master)
     frames = master.cycle({NODE: (0x02, position)})
@@ -351,5 +351,5 @@ def test_drive_rejects_bad_node_id_and_eds(tmp_path):
         EmulatedDrive("x", 0, DEFAULT_EDS, lambda i, d: None)
     broken = tmp_path / "broken.eds"
     broken.write_text("[1000]\nParameterName=x\n")
-    with pytest.raises(ValueError, match="broken.eds"):
+    with pytest.raises(ValueError, match=r"broken\.eds"):
         EmulatedDrive("x", 1, broken, lambda i, d: None)
