@@ -60,6 +60,7 @@ import numpy as np
 from controller.alarms import AlarmCode
 from controller.robot import Robot
 from hal.can import pdo
+from hal.can.busload import classic_frame_bits
 from hal.can.cia402 import DriveMaster, Goal, State, decode
 from hal.can.drive_profile import VEHICLE_JOINTS, DriveProfile
 from hal.can.scaling import I32_MIN, ScalingArray, delta_i32
@@ -79,6 +80,8 @@ log = logging.getLogger(__name__)
 MODE_CSP = 8
 #: Quick stop option code (0x605A): decelerate on the quick stop ramp, then Switch on disabled.
 QUICK_STOP_OPTION = 2
+#: Worst-case classic frame length [bit] per data length (0..8 bytes).
+_FRAME_BITS = [classic_frame_bits(n) for n in range(9)]
 #: Socketcan error-frame class bit of a bus-off (linux/can/error.h CAN_ERR_BUSOFF).
 CAN_ERR_BUSOFF = 0x40
 
@@ -234,9 +237,11 @@ class CanBackend(HardwareInterface):
         self._faults: list[HardwareFault] = []
         self._new_faults: list[HardwareFault] = []
         self._lock = threading.RLock()
-        #: Frames sent and received per bus since configure (for benchmarks).
+        #: Frames sent and received per bus since configure, and their worst-case length
+        #: [bit] (classic CAN, bit stuffing; :mod:`hal.can.busload`), for benchmarks.
         self.frames_sent = dict.fromkeys(profile.buses, 0)
         self.frames_received = dict.fromkeys(profile.buses, 0)
+        self.bits = dict.fromkeys(profile.buses, 0)
 
     # ----------------------------------------------------------------------------- queries
     @property
@@ -473,6 +478,7 @@ class CanBackend(HardwareInterface):
             self._enter_fault([fault(port.name, what)])
             return False
         self.frames_sent[port.name] += 1
+        self.bits[port.name] += _FRAME_BITS[min(len(msg.data), 8)]
         return True
 
     def _send_cycle(self, position: np.ndarray | None) -> None:
@@ -551,6 +557,7 @@ class CanBackend(HardwareInterface):
         if msg is None:
             return False
         self.frames_received[port.name] += 1
+        self.bits[port.name] += _FRAME_BITS[min(len(msg.data), 8)]
         if msg.is_error_frame:
             if msg.arbitration_id & CAN_ERR_BUSOFF:
                 port.failed = True
