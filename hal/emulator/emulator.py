@@ -5,12 +5,14 @@ puts one :class:`~hal.emulator.drive.EmulatedDrive` per drive on a python-can bu
 bus, and moves the joints in a :class:`~hal.emulator.plant.Plant` (MuJoCo).
 
 **Lockstep.** Simulated time advances only on SYNC, one period per cycle. A cycle spans every
-bus: on a bus's SYNC its drives latch their RPDOs; once every bus that took part in the
-previous cycle has had its SYNC, the physics steps one period and every synced drive samples
-and sends its TPDOs. A bus whose SYNC stops (its master died) drops out of the cycle after
-one late cycle; a second SYNC on a bus before the others closes the pending cycle first. So a
-master that sends RPDOs on every bus and then one SYNC per bus gets, on each bus, TPDOs that
-describe the state at the end of the period it just commanded.
+bus: on a bus's SYNC its drives latch their RPDOs; once every bus that the cycle waits for
+has had its SYNC, the physics steps one period and every synced drive samples and sends its
+TPDOs. A cycle waits for a bus when one of its drives is OPERATIONAL (the others do not
+answer a SYNC anyway), it is not bus-off, and its master is alive: a second SYNC on a bus
+before the others had theirs closes the pending cycle and marks the silent buses gone until
+their next SYNC. So a master that sends RPDOs on every bus and then one SYNC per bus gets,
+on each bus, TPDOs that describe the state at the end of the period it just commanded; a
+master that only uses some of the buses is not slowed by the others.
 
 **Buses.** ``channels`` maps a profile bus name to python-can ``(interface, channel)``;
 by default each bus is a ``virtual`` channel private to this emulator (``hil-<n>-<bus>``),
@@ -46,7 +48,7 @@ import numpy as np
 from controller.robot import Robot, load_robot
 from hal.can.drive_profile import DriveProfile, drives_path, eds_path, load_drive_profile
 from hal.can.scaling import wrap_i32
-from hal.emulator.drive import EmulatedDrive
+from hal.emulator.drive import NMT_OPERATIONAL, EmulatedDrive
 from hal.emulator.faults import ActiveFault, FaultableBus, FaultInjector
 from hal.emulator.plant import Plant
 
@@ -75,6 +77,8 @@ class _Port:
         self.pending: list[bool] = []
         self.dirty = True
         self.synced = False
+        #: False once a cycle had to close without this bus's SYNC (its master is gone).
+        self.alive = True
         self.send_errors = 0
 
     def send(self, can_id: int, data: bytes) -> None:
@@ -159,7 +163,6 @@ class DriveEmulator:
             self.drives, {n: d.bus for n, d in self.profile.drives.items()}, self._set_bus_off
         )
         self._master_buses: dict[str, list[FaultableBus]] = {n: [] for n in self._ports}
-        self._expected: set[str] = set()
         self._cycles = 0
         self._threads: list[threading.Thread] = []
         self._running = threading.Event()
@@ -332,7 +335,7 @@ class DriveEmulator:
         group = port.sync_groups.get(can_id)
         if group is not None:
             self._sync(port, group)
-            if self._expected <= {n for n, p in self._ports.items() if p.synced}:
+            if all(p.synced for p in self._ports.values() if self._expects(p)):
                 self._complete_cycle()
             return
         handlers = port.routes.get(can_id)
@@ -351,7 +354,13 @@ class DriveEmulator:
             group = list(range(len(port.drives)))
         pending = port.pending
         if port.synced and any(pending[k] for k in group):
-            self._complete_cycle()  # a second SYNC before the other buses: close the cycle
+            # A second SYNC before the other buses had theirs: they are gone; close the cycle.
+            for other in self._ports.values():
+                if not other.synced and self._expects(other):
+                    other.alive = False
+                    log.warning("bus %s: no SYNC this cycle; cycles go on without it", other.name)
+            self._complete_cycle()
+        port.alive = True
         drives = port.drives
         for k in group:
             drives[k].latch()
@@ -369,11 +378,8 @@ class DriveEmulator:
         positions = self.plant.position_counts().tolist()
         velocities = self.plant.velocity_counts().tolist()
         sim_time = self.plant.sim_time
-        synced = set()
-        for name, port in self._ports.items():
-            if port.synced:
-                synced.add(name)
-                port.synced = False
+        for port in self._ports.values():
+            port.synced = False
             pending = port.pending
             for k, (i, drive) in enumerate(zip(port.indices, port.drives, strict=True)):
                 if pending[k]:
@@ -381,10 +387,19 @@ class DriveEmulator:
                     pending[k] = False
                 else:  # no SYNC for this drive this cycle: its joint moved, nothing is sent
                     drive.actual, drive.velocity = wrap_i32(positions[i]), 0
-        self._expected = synced
         self._cycles += 1
         if self.record_cycle_times:
             self.cycle_times.append(time.perf_counter() - start)
+
+    @staticmethod
+    def _expects(port: _Port) -> bool:
+        """Whether a cycle waits for this bus's SYNC: it is up, its master alive, and one of
+        its drives OPERATIONAL (only those answer a SYNC)."""
+        return (
+            port.alive
+            and not port.bus_off
+            and any(d.nmt_state == NMT_OPERATIONAL for d in port.drives)
+        )
 
     def _tick(self, now: float) -> None:
         for drive in self._order:
@@ -403,7 +418,6 @@ class DriveEmulator:
         port.pending = [False] * len(port.drives)
         for wrapped in self._master_buses[bus]:
             wrapped.bus_off = on
-        self._expected.discard(bus)
 
     def _close_buses(self) -> None:
         for port in self._ports.values():
