@@ -53,7 +53,9 @@ def main() -> int:
     hw = make_hardware("hil", robot, dt)
     assert isinstance(hw, CanBackend)
     core = MotionCore(robot, hw, dt)
-    core.servo_on()
+    # Configure now; servo on from inside the running loop, as the daemon does: enabled
+    # drives expect the cycle's heartbeat (a loop that stalls lets them time out and stop).
+    hw.configure()
     mix = script(core)
     done = {"motions": 0, "skipped": 0, "next": 0}
     ready: list[Motion] = []
@@ -72,6 +74,8 @@ def main() -> int:
             time.sleep(0.001)
 
     def step(cycle: int, t: float) -> bool:
+        if cycle == 1:
+            core.servo_on()
         core.cycle()
         if ready and core.state == CoreState.READY and core.motion is None:
             core.start(ready.pop())

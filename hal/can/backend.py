@@ -237,6 +237,8 @@ class CanBackend(HardwareInterface):
         self._faults: list[HardwareFault] = []
         self._new_faults: list[HardwareFault] = []
         self._lock = threading.RLock()
+        self._keepalive: threading.Thread | None = None
+        self._keepalive_stop = threading.Event()
         #: Frames sent and received per bus since configure, and their worst-case length
         #: [bit] (classic CAN, bit stuffing; :mod:`hal.can.busload`), for benchmarks.
         self.frames_sent = dict.fromkeys(profile.buses, 0)
@@ -291,6 +293,11 @@ class CanBackend(HardwareInterface):
             self._send_heartbeat(now, force=True)
             self._state = HardwareState.INACTIVE
             self._send_cycle(None)  # a first SYNC: the first read() has feedback
+            self._keepalive_stop.clear()
+            self._keepalive = threading.Thread(
+                target=self._keep_alive, name="can-heartbeat", daemon=True
+            )
+            self._keepalive.start()
 
     def activate(self) -> None:
         """Enable every drive holding its position (bounded blocking). INACTIVE -> ACTIVE."""
@@ -375,6 +382,10 @@ class CanBackend(HardwareInterface):
 
     def shutdown(self) -> None:
         """Quick stop every drive and close the buses. Any state -> FINALIZED."""
+        self._keepalive_stop.set()
+        if self._keepalive is not None:
+            self._keepalive.join(timeout=1.0)
+            self._keepalive = None
         with self._lock:
             if self._ports:
                 for m in self._masters:
@@ -518,6 +529,20 @@ class CanBackend(HardwareInterface):
         ]  # raw counts, exact (wheels wrap as the drive does)
         if self._vehicle is not None:
             self._vehicle.hold()
+
+    def _keep_alive(self) -> None:
+        """Master heartbeat while the drives are not enabled and no cycle sends it (between
+        configure() and the loop's first cycle, in a paused loop). Never in ACTIVE: a stalled
+        loop must let the enabled drives time out and stop."""
+        period = self.profile.heartbeat.master_producer_ms / 1e3
+        while not self._keepalive_stop.wait(period / 2):
+            if self._state is HardwareState.ACTIVE or not self._lock.acquire(blocking=False):
+                continue
+            try:
+                if self._state in (HardwareState.INACTIVE, HardwareState.FAULT):
+                    self._send_heartbeat(self._clock())
+            finally:
+                self._lock.release()
 
     def _send_heartbeat(self, now: float, force: bool = False) -> None:
         if force or now - self._last_hb_sent >= self.profile.heartbeat.master_producer_ms / 1e3:
