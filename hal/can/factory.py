@@ -13,7 +13,7 @@ Options (``hal.options`` of the daemon configuration):
                     (``can`` only)
 ``drives``          path of another drive profile (default ``config/robots/<id>/drives.yaml``)
 ``feedback_wait``   [s] how long ``read()`` may wait for missing TPDOs (default 0 for ``can``,
-                    one period for ``hil``)
+                    max(10 periods, 20 ms) for ``hil``)
 ``enable_timeout``  [s] bound of ``activate()`` (default 0.5)
 ``reset_timeout``   [s] bound of ``reset_faults()`` (default 0.5)
 ``sdo_timeout``     [s] per SDO request at set-up (default 0.3)
@@ -36,6 +36,8 @@ from hal.can.drive_profile import drives_path, load_drive_profile
 
 log = logging.getLogger(__name__)
 
+#: Least time [s] ``read()`` waits for the emulator's TPDOs in ``hil``.
+HIL_FEEDBACK_WAIT = 0.02
 OPTIONS = ("buses", "drives", "feedback_wait", "enable_timeout", "reset_timeout", "sdo_timeout")
 _SECONDS = ("feedback_wait", "enable_timeout", "reset_timeout", "sdo_timeout")
 
@@ -73,7 +75,9 @@ def make_can_backend(
 
     emulator = DriveEmulator(robot, profile, period=dt)
     emulator.start()
-    timing.setdefault("feedback_wait", dt)
+    # Lock-step: the emulator is the plant; on a busy host its thread may answer late, and
+    # waiting for it (an overrun) is right where real drives would be on time.
+    timing.setdefault("feedback_wait", max(10 * dt, HIL_FEEDBACK_WAIT))
     try:
         backend = CanBackend(
             robot,
