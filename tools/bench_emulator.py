@@ -39,8 +39,8 @@ def bench(robot: str, cycles: int, rate: float) -> dict[str, object]:
     emulator = DriveEmulator(robot, period=1.0 / rate)
     emulator.open()
     masters = {bus: emulator.open_master_bus(bus) for bus in emulator.channels}
-    for bus in masters.values():
-        bus.send(can.Message(arbitration_id=0x000, data=[0x01, 0], is_extended_id=False))
+    for master in masters.values():
+        master.send(can.Message(arbitration_id=0x000, data=[0x01, 0], is_extended_id=False))
     emulator.poll()
     nodes = {
         bus: [(d.node_id, d.actual) for d in emulator.drives.values() if d.name in names]

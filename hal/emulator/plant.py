@@ -33,6 +33,9 @@ from hal.can.vehicle import VehicleMapping
 from hal.interface import HardwareState, JointCommand
 from hal.mujoco_backend import MujocoBackend
 
+#: Largest distance a joint servo pulls from [rad] / [m] (see Plant.step).
+_PULL_RAD = 0.2
+_PULL_M = 0.05
 _SPAN = 2**32
 _HALF = 2**31
 
@@ -62,6 +65,9 @@ class Plant:
             self._mapping_act = VehicleMapping(robot.profile.vehicle.wheels)
         self.backend = MujocoBackend(robot, self.period, joint_names=joints + vehicle)
         self._nj = len(joints)
+        self._pull = np.array(
+            [_PULL_RAD if robot.joints[n].kind == "revolute" else _PULL_M for n in joints]
+        )
         self._scaling = ScalingArray([profile.drives[n].scaling() for n in self.names])
         n = len(self.names)
         self._target = np.zeros(n, dtype=np.int64)  # unwrapped targets [counts]
@@ -119,7 +125,11 @@ class Plant:
         ji = self._joint_idx
         position = np.empty(self._mask.size)
         velocity = np.zeros(self._mask.size)
-        position[:nj] = np.where(torque[ji], self._ref[ji], self._position[ji])
+        measured = self._position[ji]
+        # Torque saturation stand-in: the servo never pulls from further than _PULL away, so
+        # a wild target (a following error to be) cannot blow the simulation up.
+        pulled = measured + np.clip(self._ref[ji] - measured, -self._pull, self._pull)
+        position[:nj] = np.where(torque[ji], pulled, measured)
         velocity[:nj] = feed[ji]
         self._mask[:nj] = torque[ji]
         if self._mapping_cmd is not None:
