@@ -38,5 +38,7 @@ def make_hardware(
 
         return IdealBackend(robot, dt)
     if kind in ("hil", "can"):
-        raise ValueError(f"hal {kind!r} is not available yet")
+        from hal.can.factory import make_can_backend
+
+        return make_can_backend(kind, robot, dt, options)
     raise ValueError(f"unknown hal {kind!r}: choose one of {', '.join(HAL_KINDS)}")

@@ -184,6 +184,7 @@ class MujocoBackend(HardwareInterface):
         self._dv = np.zeros(n)
         self._scratch = np.zeros(n)
         self._fractions = tuple((j + 0.5) / substeps for j in range(substeps))
+        self._servo_mask = np.zeros(n, dtype=bool)  # which exposed joints have the servo on
         self._divergences = 0
 
     # ----------------------------------------------------------------------------- queries
@@ -301,6 +302,29 @@ class MujocoBackend(HardwareInterface):
         self._faults.clear()
         self._state = HardwareState.FINALIZED
 
+    def set_servo_mask(self, enabled: Sequence[bool] | np.ndarray) -> None:
+        """Servo on/off per joint of :attr:`joint_names` while ACTIVE (the drive emulator
+        enables each drive on its own). A joint switched on holds its measured position; a
+        joint switched off keeps only the ``kv`` damping. Other joints are left as they are."""
+        if self._state is not HardwareState.ACTIVE:
+            raise RuntimeError(f"set_servo_mask() needs ACTIVE, backend is {self._state.value}")
+        n, total = len(self.joint_names), len(self._actuated)
+        mask = np.asarray(enabled, dtype=bool)
+        if mask.shape != (n,):
+            raise ValueError(f"servo mask has shape {mask.shape}, expected ({n},)")
+        model, data = self.model, self.data
+        switched_on = np.flatnonzero(mask & ~self._servo_mask)
+        if switched_on.size:
+            hold = data.qpos[self._qadr[switched_on]]
+            data.ctrl[switched_on] = hold
+            self._q_prev[switched_on] = hold
+            self._v_prev[switched_on] = 0.0
+        kp = np.where(mask, self._kp[:n], 0.0)
+        model.actuator_gainprm[:n, 0] = kp
+        model.actuator_biasprm[:n, 1] = -kp
+        model.actuator_gainprm[total : total + n, 0] = np.where(mask, self._kv[:n], 0.0)
+        self._servo_mask[:] = mask
+
     def inject_fault(self, fault: HardwareFault) -> None:
         """Raise ``fault`` as if a drive reported it (for tests): servos off, state FAULT."""
         if self._data is None:
@@ -397,6 +421,7 @@ class MujocoBackend(HardwareInterface):
         model.actuator_gainprm[:total, 0] = kp
         model.actuator_biasprm[:total, 1] = -kp
         model.actuator_gainprm[total:, 0] = self._kv if on else 0.0
+        self._servo_mask.fill(on)
 
     def _divergence_count(self) -> int:
         data = self.data

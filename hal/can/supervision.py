@@ -1,0 +1,190 @@
+"""Per-cycle supervision of the drives and buses, as :class:`~hal.interface.HardwareFault`.
+
+Every cycle the CAN backend hands over what it decoded; :class:`Supervisor` turns problems
+into faults with imotion's alarm codes (:class:`controller.alarms.AlarmCode`):
+
+=======  =================  ===========================================================
+code     name               raised when
+=======  =================  ===========================================================
+0x400    DRIVE_FAULT        a drive's statusword reports Fault (or Fault reaction active)
+0x401    HEARTBEAT_LOST     no heartbeat from a drive within ``master_consumer_ms``, a
+                            drive reports a stopped/boot-up NMT state, or a drive's EMCY
+                            0x8130 says it lost the master's heartbeat
+0x402    BUS_OFF            the CAN controller reports bus-off (error frame, bus state)
+0x403    FOLLOWING_ERROR    |actual − set-point| above the window for ``time_ms``, or a
+                            drive's EMCY 0x8611
+0x404    EMCY               any other EMCY from a drive (code and name in the text)
+0x405    TPDO_TIMEOUT       no TPDO1 from an operational drive for ``tpdo_timeout_cycles``
+0x406    BUS_ERROR          a frame could not be sent
+0x407    ENABLE_REFUSED     a drive did not reach Operation enabled in time
+=======  =================  ===========================================================
+
+``source`` is the drive (joint or wheel) name, or the bus name for bus faults; the
+description names the node id, the bus and what happened.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from controller.alarms import AlarmCode
+from hal.can.cia402 import State
+from hal.can.pdo import emcy_name
+from hal.interface import HardwareFault
+
+EMCY_FOLLOWING_ERROR = 0x8611
+EMCY_HEARTBEAT = 0x8130
+
+
+class DriveError(RuntimeError):
+    """A lifecycle step failed because of the drives; ``faults`` says which and why."""
+
+    def __init__(self, faults: list[HardwareFault]):
+        super().__init__("; ".join(f"0x{f.code:03X} {f.source}: {f.description}" for f in faults))
+        self.faults = faults
+
+
+class Supervisor:
+    """Counters and checks of every drive (index ``i`` = position in ``names``)."""
+
+    def __init__(
+        self,
+        names: list[str],
+        node_ids: list[int],
+        buses: list[str],
+        dt: float,
+        windows: np.ndarray,
+        following_time: float,
+        heartbeat_timeout: float,
+        tpdo_timeout_cycles: int,
+    ):
+        self.names = names
+        self.node_ids = node_ids
+        self.buses = buses
+        self.windows = windows
+        #: Cycles the following error may stay outside its window.
+        self.following_cycles = max(1, math.ceil(following_time / dt - 1e-9))
+        self.heartbeat_timeout = heartbeat_timeout
+        self.tpdo_timeout_cycles = tpdo_timeout_cycles
+        n = len(names)
+        self.missed = np.zeros(n, dtype=int)
+        self.outside = np.zeros(n, dtype=int)
+        self.last_heartbeat = np.zeros(n)
+        #: Heartbeat loss already reported (once per episode).
+        self.reported = np.zeros(n, dtype=bool)
+
+    def where(self, i: int) -> str:
+        return f"node {self.node_ids[i]} on bus {self.buses[i]}"
+
+    def reset(self, now: float) -> None:
+        """Forget counters (after set-up, a fault reset, an enable)."""
+        self.missed[:] = 0
+        self.outside[:] = 0
+        self.last_heartbeat[:] = now
+        self.reported[:] = False
+
+    def alive(self, now: float) -> bool:
+        """Every drive's heartbeat is within the consumer time."""
+        return bool((now - self.last_heartbeat <= self.heartbeat_timeout).all())
+
+    # ----------------------------------------------------------------------- checks
+    def emcy(self, i: int, code: int, register: int) -> HardwareFault | None:
+        """Fault for an EMCY frame (None for 0x0000, 'error reset')."""
+        if code == 0:
+            return None
+        what = f"EMCY 0x{code:04X} ({emcy_name(code)}), error register 0x{register:02X}"
+        if code == EMCY_FOLLOWING_ERROR:
+            alarm = AlarmCode.FOLLOWING_ERROR
+        elif code == EMCY_HEARTBEAT:
+            alarm = AlarmCode.HEARTBEAT_LOST
+        else:
+            alarm = AlarmCode.EMCY
+        return HardwareFault(int(alarm), self.names[i], f"{self.where(i)}: {what}")
+
+    def state(self, i: int, state: State, statusword: int) -> HardwareFault | None:
+        """Fault for a drive in Fault (reaction) state."""
+        if state not in (State.FAULT, State.FAULT_REACTION_ACTIVE):
+            return None
+        return HardwareFault(
+            int(AlarmCode.DRIVE_FAULT),
+            self.names[i],
+            f"{self.where(i)}: drive in state {state.value} (statusword 0x{statusword:04X})",
+        )
+
+    def nmt(self, i: int, nmt_state: int) -> HardwareFault | None:
+        """Fault for a heartbeat that reports anything but OPERATIONAL (a reboot, a stop)."""
+        if nmt_state == 0x05:
+            return None
+        what = {0x00: "booted (reset)", 0x04: "stopped", 0x7F: "pre-operational"}.get(
+            nmt_state, f"NMT state 0x{nmt_state:02X}"
+        )
+        return HardwareFault(
+            int(AlarmCode.HEARTBEAT_LOST), self.names[i], f"{self.where(i)}: heartbeat: {what}"
+        )
+
+    def tpdo(self, fresh: np.ndarray) -> list[HardwareFault]:
+        """Count cycles without TPDO1 (``fresh``: got one this cycle); faults at the limit."""
+        self.missed += 1
+        self.missed[fresh] = 0
+        faults = []
+        for i in np.flatnonzero(self.missed == self.tpdo_timeout_cycles):
+            faults.append(
+                HardwareFault(
+                    int(AlarmCode.TPDO_TIMEOUT),
+                    self.names[i],
+                    f"{self.where(int(i))}: no TPDO1 (statusword, position) for "
+                    f"{self.tpdo_timeout_cycles} cycles",
+                )
+            )
+        return faults
+
+    def heartbeats(self, now: float) -> list[HardwareFault]:
+        """Faults for drives whose last heartbeat is older than the consumer time."""
+        late = np.flatnonzero((now - self.last_heartbeat > self.heartbeat_timeout) & ~self.reported)
+        faults = []
+        for i in late:
+            age = now - self.last_heartbeat[i]
+            faults.append(
+                HardwareFault(
+                    int(AlarmCode.HEARTBEAT_LOST),
+                    self.names[i],
+                    f"{self.where(int(i))}: no heartbeat for {age * 1e3:.0f} ms "
+                    f"(consumer time {self.heartbeat_timeout * 1e3:.0f} ms)",
+                )
+            )
+            self.reported[i] = True
+        return faults
+
+    def following(self, error: np.ndarray, active: np.ndarray) -> list[HardwareFault]:
+        """Count cycles with |error| [SI] above the window on ``active`` drives."""
+        over = (np.abs(error) > self.windows) & active
+        self.outside += 1
+        self.outside[~over] = 0
+        faults = []
+        for i in np.flatnonzero(self.outside == self.following_cycles):
+            faults.append(
+                HardwareFault(
+                    int(AlarmCode.FOLLOWING_ERROR),
+                    self.names[i],
+                    f"{self.where(int(i))}: following error {float(error[i]):.4g} exceeds the "
+                    f"window {float(self.windows[i]):.4g} for {self.following_cycles} cycles",
+                )
+            )
+        return faults
+
+    @staticmethod
+    def bus_off(bus: str, what: str) -> HardwareFault:
+        return HardwareFault(int(AlarmCode.BUS_OFF), bus, f"bus {bus}: bus-off ({what})")
+
+    @staticmethod
+    def bus_error(bus: str, what: str) -> HardwareFault:
+        return HardwareFault(int(AlarmCode.BUS_ERROR), bus, f"bus {bus}: {what}")
+
+    def enable_refused(self, i: int, state: State, seconds: float) -> HardwareFault:
+        return HardwareFault(
+            int(AlarmCode.ENABLE_REFUSED),
+            self.names[i],
+            f"{self.where(i)}: not operation enabled after {seconds:.2f} s (state: {state.value})",
+        )

@@ -1,0 +1,232 @@
+"""``imotion-sim``: the drive emulator as its own process, on real or bridged CAN buses.
+
+Usage::
+
+    imotion-sim --robot smartpal5 --serve 127.0.0.1:54701
+        # no vcan (this machine): host one python-can-remote endpoint per bus on 127.0.0.1,
+        # ports 54701, 54702, ... in drives.yaml bus order (port 0: any free ports)
+    imotion-sim --robot pa10 --interface socketcan --channel arm_a=vcan0 --channel arm_b=vcan1
+    imotion-sim --robot rh --interface remote --channel arm=ws://127.0.0.1:54701/ ...
+        # join existing buses (one --channel BUS=CHANNEL per bus; a single-bus robot may
+        # give --channel CHANNEL); buses not named keep drives.yaml's interface/channel
+
+stdout: one line per bus once every bus is up, ``bus=<name> interface=<i> channel=<c>
+drives=<n>``, then answers to commands. stdin (optional): one command per line,
+
+* ``inject <kind> <joint> [key=value ...]`` (kinds of :mod:`hal.emulator.faults`; integer
+  values may be hex, e.g. ``code=0x2310``; ``bus_off`` may take ``bus=<name>`` for joint
+  ``-``),
+* ``clear [<kind>|-] [<joint>]``, ``status``;
+
+each answered on stdout by one line ``ok ...`` or ``error ...``. stderr: JSON log lines.
+SIGTERM and SIGINT close the buses and exit 0; a bus that cannot be opened exits 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+from controller.robot import load_robot
+from controller.yaml_source import ConfigError
+from hal.can.drive_profile import drives_path, load_drive_profile
+from hal.emulator.bridge import BusBridge
+from hal.emulator.emulator import DriveEmulator
+
+log = logging.getLogger("imotion-sim")
+
+
+class JsonFormatter(logging.Formatter):
+    """One JSON object per log record: ts, level, logger, msg (+ exc)."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        entry: dict[str, Any] = {
+            "ts": round(record.created, 6),
+            "level": record.levelname.lower(),
+            "logger": record.name,
+            "msg": record.getMessage(),
+        }
+        if record.exc_info:
+            entry["exc"] = self.formatException(record.exc_info)
+        return json.dumps(entry)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="imotion-sim", description="CiA 402 drive emulator for hardware-in-the-loop tests"
+    )
+    parser.add_argument("--robot", required=True, help="robot id or directory (drives.yaml)")
+    parser.add_argument("--drives", help="another drive profile (default: the robot's)")
+    parser.add_argument("--period", type=float, help="simulated time per SYNC [s]")
+    parser.add_argument(
+        "--serve", metavar="HOST:PORT", help="serve every bus with python-can-remote"
+    )
+    parser.add_argument("--interface", help="python-can interface of the --channel buses")
+    parser.add_argument(
+        "--channel", action="append", default=[], metavar="[BUS=]CHANNEL",
+        help="python-can channel of a bus (repeat per bus)",
+    )  # fmt: skip
+    parser.add_argument("--log-level", default="info", help="debug, info, warning, error")
+    return parser
+
+
+def _channels(args: argparse.Namespace, buses: Sequence[str]) -> dict[str, tuple[str, str]]:
+    """Bus -> (interface, channel) from --interface/--channel; ValueError naming the problem."""
+    if args.serve and (args.channel or args.interface):
+        raise ValueError("--serve hosts its own buses: leave out --interface and --channel")
+    if args.channel and not args.interface:
+        raise ValueError("--channel needs --interface (e.g. socketcan or remote)")
+    out: dict[str, tuple[str, str]] = {}
+    for item in args.channel:
+        bus, sep, channel = item.partition("=")
+        if not sep:
+            if len(buses) != 1:
+                raise ValueError(
+                    f"--channel {item!r}: this robot has {len(buses)} buses "
+                    f"({', '.join(buses)}): give --channel BUS=CHANNEL for each"
+                )
+            bus, channel = buses[0], item
+        if bus not in buses:
+            raise ValueError(f"--channel {item!r}: unknown bus {bus!r} (buses: {', '.join(buses)})")
+        if not channel:
+            raise ValueError(f"--channel {item!r}: empty channel")
+        out[bus] = (args.interface, channel)
+    return out
+
+
+def _serve_address(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or int(port) > 65535:
+        raise ValueError(f"--serve {text!r}: expected HOST:PORT, e.g. 127.0.0.1:54701")
+    return host, int(port)
+
+
+def _parse_value(text: str) -> Any:
+    lowered = text.lower()
+    if lowered in ("true", "false"):
+        return lowered == "true"
+    try:
+        return int(text, 0)
+    except ValueError:
+        return text
+
+
+def handle_command(emulator: DriveEmulator, line: str) -> str:
+    """Run one stdin command; the answer line (``ok ...`` or ``error ...``)."""
+    words = line.split()
+    if not words:
+        return ""
+    verb, rest = words[0], words[1:]
+    try:
+        if verb == "inject" and len(rest) >= 2:
+            params: dict[str, Any] = {}
+            for item in rest[2:]:
+                key, sep, value = item.partition("=")
+                if not sep:
+                    return f"error inject: parameter {item!r} is not key=value"
+                params[key] = _parse_value(value)
+            joint = None if rest[1] == "-" else rest[1]
+            emulator.inject(rest[0], joint, **params)
+            return f"ok inject {' '.join(rest)}"
+        if verb == "clear" and len(rest) <= 2:
+            kind = rest[0] if rest and rest[0] != "-" else None
+            joint = rest[1] if len(rest) > 1 else None
+            return f"ok clear {emulator.clear(kind, joint)}"
+        if verb == "status" and not rest:
+            faults = " ".join(f"{f.kind.value}:{f.target}" for f in emulator.active_faults)
+            return f"ok cycles={emulator.cycles} sim_time={emulator.sim_time:.3f} faults={faults}"
+    except ValueError as exc:
+        return f"error {exc}"
+    return f"error unknown command {line.strip()!r}: inject KIND JOINT [k=v ...] | clear | status"
+
+
+def _read_commands(emulator: DriveEmulator, stdin: TextIO, stdout: TextIO) -> None:
+    for line in stdin:
+        answer = handle_command(emulator, line)
+        if answer:
+            print(answer, file=stdout, flush=True)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    level = logging.getLevelName(args.log_level.upper())
+    if not isinstance(level, int):
+        print(f"imotion-sim: --log-level {args.log_level!r}: use debug, info, warning or error",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    root, canopen_log = logging.getLogger(), logging.getLogger("canopen")
+    saved = root.level, canopen_log.level
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(JsonFormatter())
+    root.addHandler(handler)
+    root.setLevel(level)
+    if level > logging.DEBUG:
+        canopen_log.setLevel(logging.WARNING)  # one line per SDO otherwise
+    try:
+        return _run(args)
+    finally:
+        root.removeHandler(handler)
+        root.setLevel(saved[0])
+        canopen_log.setLevel(saved[1])
+
+
+def _run(args: argparse.Namespace) -> int:
+    try:
+        robot = load_robot(args.robot)
+        path = drives_path(robot) if args.drives is None else Path(args.drives)
+        profile = load_drive_profile(path, robot)
+        channels = _channels(args, list(profile.buses))
+        serve = _serve_address(args.serve) if args.serve else None
+        emulator = DriveEmulator(robot, profile, period=args.period, channels=channels)
+    except (ConfigError, ValueError, OSError) as exc:
+        print(f"imotion-sim: {exc}", file=sys.stderr)
+        return 2
+    bridge = None
+    try:
+        if serve is not None:
+            virtual = {bus: channel for bus, (_, channel) in emulator.channels.items()}
+            bridge = BusBridge(virtual, *serve)
+        emulator.start()
+        if bridge is not None:
+            bridge.start()
+    except OSError as exc:
+        print(f"imotion-sim: {exc}", file=sys.stderr)
+        emulator.close()
+        if bridge is not None:
+            bridge.close()
+        return 2
+    served = {e.bus: e.url for e in bridge.endpoints} if bridge else {}
+    for bus, (interface, channel) in emulator.channels.items():
+        shown = ("remote", served[bus]) if bus in served else (interface, channel)
+        drives = len(profile.drives_on(bus))
+        print(f"bus={bus} interface={shown[0]} channel={shown[1]} drives={drives}", flush=True)
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    reader = threading.Thread(
+        target=_read_commands, args=(emulator, sys.stdin, sys.stdout), daemon=True
+    )
+    reader.start()
+    log.info("imotion-sim running: robot %s, %d drives, period %.4f s",
+             robot.id, len(emulator.drives), emulator.period)  # fmt: skip
+    while not stop.is_set():
+        stop.wait(0.2)
+    start = time.monotonic()
+    if bridge is not None:
+        bridge.close()
+    emulator.close()
+    log.info("imotion-sim stopped after %d cycles (closing took %.2f s)",
+             emulator.cycles, time.monotonic() - start)  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,283 @@
+"""hal.can.backend: lifecycle, cycle, injected faults and recovery, full stack in HIL.
+
+Every test runs the CAN backend against the drive emulator in one process over python-can
+``virtual`` buses, lock-step on a fake clock (tests/can_support.py): no wall-clock asserts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from controller.alarms import AlarmCode
+from controller.core import CoreState, MotionCore
+from controller.enums import UnitType
+from controller.motion.motions import JointMotion
+from hal.can import pdo
+from hal.can.cia402 import CW_ENABLE_OPERATION
+from hal.can.supervision import DriveError
+from hal.interface import HardwareState
+from tests.can_support import Hil
+
+#: Controlword bits that command torque with motion (enable operation = bits 0-3 set).
+ENABLE_BITS = CW_ENABLE_OPERATION
+
+
+@pytest.fixture
+def hil():
+    h = Hil("smartpal5", 0.002)
+    yield h
+    h.close()
+
+
+def test_configure_sets_every_drive_up(hil: Hil):
+    hil.configure()
+    assert hil.backend.state is HardwareState.INACTIVE
+    for name, cfg in hil.profile.drives.items():
+        drive = hil.emulator.drives[name]
+        od = drive.node.sdo
+        assert od[0x6060].raw == 8
+        assert (od[0x60C2][1].raw, od[0x60C2][2].raw) == (2, -3)
+        assert od[0x1017].raw == hil.profile.heartbeat.drive_producer_ms
+        assert od[0x1016][1].raw == (127 << 16) | hil.profile.heartbeat.drive_consumer_ms
+        assert od[0x6007].raw == 3
+        assert od[0x1801][1].raw & 0x80000000 == (0 if cfg.velocity_feedback else 0x80000000)
+        assert drive.nmt_state == 0x05
+    for _ in range(3):
+        hil.cycle()
+    assert not hil.backend.faults()
+    assert set(hil.backend.drive_states().values()) == {hil.backend.drive_states()["r_arm_j1"]}
+
+
+def test_activate_holds_position_and_tracks(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    start = hil.cycle().position.copy()
+    hil.backend.activate()
+    assert hil.backend.state is HardwareState.ACTIVE
+    assert all(hil.drive_state(n) == "operation enabled" for n in hil.profile.drives)
+    # Nothing jumps at enable (target := actual).
+    np.testing.assert_allclose(hil.cycle().position, start, atol=1e-4)
+    names = hil.backend.joint_names
+    j1, x = names.index("r_arm_j1"), names.index("vehicle_x")
+    target = start.copy()
+    for k in range(250):
+        target[j1] = start[j1] + 0.2 * k / 250
+        target[x] = 0.1 * k / 250
+        hil.cycle(target)
+    for _ in range(100):
+        state = hil.cycle(target)
+    assert abs(state.position[j1] - target[j1]) < 2e-3
+    assert abs(state.position[x] - target[x]) < 2e-3  # odometry of the three omni wheels
+    assert not hil.backend.faults()
+
+
+def test_deactivate_quick_stops_then_disables(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    hil.backend.activate()
+    hil.sniffer.frames()
+    hil.backend.deactivate()
+    assert hil.backend.state is HardwareState.INACTIVE
+    hil.cycle()
+    rpdo = [m for _, m in hil.sniffer.frames() if m.arbitration_id & 0x780 == pdo.RPDO1]
+    assert rpdo and all(m.data[0] == 0x02 for m in rpdo)  # quick stop
+    for _ in range(5):
+        hil.cycle()
+    assert all(hil.drive_state(n) == "switch on disabled" for n in hil.profile.drives)
+    assert not hil.backend.faults()
+    hil.backend.activate()  # and again
+    assert hil.backend.state is HardwareState.ACTIVE
+
+
+def test_refused_enable_is_0x407_naming_the_drive(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    hil.emulator.inject("refuse_enable", "l_arm_j3")
+    with pytest.raises(DriveError) as err:
+        hil.backend.activate()
+    assert [(f.code, f.source) for f in err.value.faults] == [(0x407, "l_arm_j3")]
+    assert "node 13 on bus arm_l_shoulder" in err.value.faults[0].description
+    assert hil.backend.state is HardwareState.FAULT
+    hil.emulator.clear()
+    assert hil.backend.reset_faults()
+    hil.backend.activate()
+    assert hil.backend.state is HardwareState.ACTIVE
+
+
+def test_reset_fails_while_the_cause_persists(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    hil.emulator.inject("silent", "wheel_2")
+    for _ in range(4):
+        hil.cycle()
+    assert hil.backend.state is HardwareState.FAULT
+    assert not hil.backend.reset_faults()
+    assert hil.backend.state is HardwareState.FAULT
+    hil.emulator.clear()
+    assert hil.backend.reset_faults()
+
+
+def test_second_read_without_write_is_the_same_state(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    a = hil.backend.read()
+    b = hil.backend.read()
+    np.testing.assert_array_equal(a.position, b.position)
+    assert a.stamp == b.stamp
+
+
+def test_non_finite_set_point_faults(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    hil.backend.activate()
+    command = hil.backend.read().position.copy()
+    command[3] = np.nan
+    hil.cycle(command)
+    assert hil.backend.state is HardwareState.FAULT
+    assert hil.backend.faults()[0].code == AlarmCode.HARDWARE_INVALID_COMMAND
+
+
+# ----------------------------------------------------------------- injected faults, full core
+def servo_on_core(hil: Hil) -> MotionCore:
+    core = MotionCore(hil.robot, hil.backend, hil.dt)
+    hil.configure()
+    hil.cycle()
+    core.servo_on()
+    for _ in range(5):
+        hil.core_cycle(core)
+    assert core.state is CoreState.READY
+    return core
+
+
+def arm_motion(core: MotionCore, delta: float) -> JointMotion:
+    joints = core.kin.unit_indices(UnitType.RIGHT_ARM)
+    box = core.ik.box
+    return JointMotion(
+        core.kin, core.dt, joints, core.q_cmd[joints] + delta, box.v_max[joints], box.a_max[joints]
+    )
+
+
+#: (injection, drive, params, expected alarm code, cycles allowed after the fault is visible)
+FAULTS = [
+    ("emcy", "r_arm_j4", {"code": 0x2310}, AlarmCode.EMCY, 2),
+    ("emcy_no_fault", "lumbar_upper", {"code": 0x4310, "fault": False}, AlarmCode.EMCY, 2),
+    ("following_error", "l_arm_j2", {}, AlarmCode.FOLLOWING_ERROR, 2),
+    ("silent", "wheel_1", {}, AlarmCode.TPDO_TIMEOUT, 2 + 3),
+    ("delayed_tpdo", "r_gripper", {"cycles": 5}, AlarmCode.TPDO_TIMEOUT, 2 + 3),
+    ("bus_off", "r_arm_j6", {}, AlarmCode.BUS_OFF, 2),
+]
+
+
+@pytest.mark.parametrize(("kind", "drive", "params", "code", "within"), FAULTS)
+def test_injected_fault_alarms_quick_stops_and_recovers(
+    hil: Hil, kind: str, drive: str, params: dict, code: int, within: int
+):
+    core = servo_on_core(hil)
+    core.start(arm_motion(core, 0.2))
+    for _ in range(20):
+        hil.core_cycle(core)
+    assert core.state is CoreState.BUSY
+    hil.emulator.inject(kind.removesuffix("_no_fault"), drive, **params)
+    cycles = 0
+    while core.state is not CoreState.ALARM and cycles < 20:
+        hil.core_cycle(core)
+        cycles += 1
+    assert core.state is CoreState.ALARM
+    assert cycles <= within, f"alarm after {cycles} cycles"
+    alarm = core.alarms[0]
+    assert alarm.code == code, core.alarms
+    bus = hil.profile.drives[drive].bus
+    node = hil.profile.drives[drive].node_id
+    assert alarm.module == (bus if kind == "bus_off" else drive)
+    assert f"bus {bus}" in alarm.description
+    if kind != "bus_off":
+        assert f"node {node}" in alarm.description
+    # Every drive quick-stopped; nothing further commanded.
+    hil.sniffer.frames()
+    for _ in range(5):
+        hil.core_cycle(core)
+    frames = hil.sniffer.frames()
+    rpdo = [m for _, m in frames if m.arbitration_id & 0x780 == pdo.RPDO1]
+    assert rpdo and all(m.data[0] & ENABLE_BITS != ENABLE_BITS for m in rpdo)
+    if kind in ("silent", "bus_off"):
+        # Unreachable drives stop on their own once the master's heartbeat is missing.
+        for _ in range(int(0.35 / hil.dt)):
+            hil.core_cycle(core)
+    assert all(hil.drive_state(n) != "operation enabled" for n in hil.profile.drives)
+    assert core.motion is None
+    # Recovery once the cause is gone.
+    hil.emulator.clear()
+    core.clear_alarms()
+    core.servo_on()
+    assert core.state is CoreState.READY, core.alarms
+    assert all(hil.drive_state(n) == "operation enabled" for n in hil.profile.drives)
+    core.start(arm_motion(core, -0.1))
+    for _ in range(2000):
+        hil.core_cycle(core)
+        if core.motion is None:
+            break
+    assert core.state is CoreState.READY and not core.alarms
+
+
+def test_heartbeat_loss_alarms_after_the_consumer_time(hil: Hil):
+    core = servo_on_core(hil)
+    hil.emulator.inject("heartbeat_loss", "lumbar_lower")
+    timeout = hil.profile.heartbeat.master_consumer_ms / 1000
+    cycles = 0
+    while core.state is not CoreState.ALARM and cycles < 1000:
+        hil.core_cycle(core)
+        cycles += 1
+    assert core.alarms[0].code == AlarmCode.HEARTBEAT_LOST
+    assert core.alarms[0].module == "lumbar_lower"
+    # The last heartbeat came at most one producer period before the injection.
+    assert cycles * hil.dt <= timeout + 2 * hil.dt
+    hil.emulator.clear()
+    for _ in range(60):  # a heartbeat (100 ms) comes in again
+        hil.core_cycle(core)
+    core.clear_alarms()
+    core.servo_on()
+    assert core.state is CoreState.READY
+
+
+# ------------------------------------------------------------------------- full stack in HIL
+@pytest.mark.parametrize("rate", [250, 500])
+def test_smartpal_full_stack_on_five_buses(rate: int):
+    hil = Hil("smartpal5", 1.0 / rate)
+    try:
+        core = servo_on_core(hil)
+        assert len(hil.profile.buses) == 5
+        start = core.q.copy()
+        motion = arm_motion(core, 0.15)
+        goal = motion.target.copy() if hasattr(motion, "target") else None
+        core.start(motion)
+        for _ in range(5 * rate):
+            hil.core_cycle(core)
+            if core.motion is None:
+                break
+        assert core.state is CoreState.READY, core.alarms
+        joints = core.kin.unit_indices(UnitType.RIGHT_ARM)
+        np.testing.assert_allclose(core.q[joints], start[joints] + 0.15, atol=5e-3)
+        del goal
+        vehicle = core.kin.unit_indices(UnitType.VEHICLE)
+        vmotion = JointMotion(
+            core.kin,
+            core.dt,
+            vehicle,
+            core.q_cmd[vehicle] + np.array([0.1, -0.05, 0.2]),
+            core.ik.box.v_max[vehicle],
+            core.ik.box.a_max[vehicle],
+        )
+        core.start(vmotion)
+        for _ in range(5 * rate):
+            hil.core_cycle(core)
+            if core.motion is None:
+                break
+        assert core.state is CoreState.READY, core.alarms
+        np.testing.assert_allclose(
+            core.q[vehicle], start[vehicle] + np.array([0.1, -0.05, 0.2]), atol=5e-3
+        )
+        sent = hil.backend.frames_sent
+        assert all(sent[b] > 0 for b in hil.profile.buses)
+    finally:
+        hil.close()

@@ -1,0 +1,73 @@
+"""hal.can.factory via hal.factory.make_hardware: can/hil, options, bus-load refusal."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import pytest
+import yaml
+
+from config import ROBOTS_DIR
+from hal.can.backend import CanBackend
+from hal.factory import make_hardware
+from hal.interface import HardwareState
+from tests.support import robot
+
+
+def test_can_backend_with_bus_overrides():
+    hw = make_hardware(
+        "can", robot("pa10"), 0.002, {"buses": {"arm_a": {"interface": "virtual", "channel": "x"}}}
+    )
+    assert isinstance(hw, CanBackend)
+    assert hw.bus_kwargs("arm_a") == {"interface": "virtual", "channel": "x"}
+    assert hw.bus_kwargs("arm_b")["channel"] == "can1"
+    assert hw.state is HardwareState.UNCONFIGURED
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"nope": 1}, "unknown keys"),
+        ({"feedback_wait": -1}, "feedback_wait"),
+        ({"buses": {"ghost": {}}}, "unknown bus 'ghost'"),
+        ({"buses": 3}, "hal.options.buses"),
+    ],
+)
+def test_bad_options(options: dict, message: str):
+    with pytest.raises(ValueError, match=message):
+        make_hardware("can", robot("pa10"), 0.002, options)
+
+
+def test_overloaded_profile_is_refused_with_the_table(tmp_path: Path):
+    path = tmp_path / "drives.yaml"
+    data = yaml.safe_load((ROBOTS_DIR / "smartpal5" / "drives.yaml").read_text())
+    for drive in data["drives"].values():
+        drive["bus"] = "body"
+    data["buses"] = {"body": data["buses"]["body"]}
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ValueError) as err:
+        make_hardware("can", robot("smartpal5"), 0.002, {"drives": str(path)})
+    text = str(err.value)
+    assert "body" in text and "over 100 %: refused" in text
+
+
+def test_busy_profile_warns(caplog: pytest.LogCaptureFixture):
+    with caplog.at_level(logging.WARNING):
+        make_hardware("can", robot("seednoid"), 0.002)
+    assert "above 70 %" in caplog.text
+
+
+def test_hil_runs_the_emulator_in_process():
+    hw = make_hardware("hil", robot("pa10"), 0.002)
+    assert isinstance(hw, CanBackend) and hw.emulator is not None
+    try:
+        hw.configure()
+        for _ in range(3):
+            state = hw.read()
+            hw.write(type("C", (), {"position": state.position})())  # type: ignore[arg-type]
+        hw.activate()
+        assert hw.state is HardwareState.ACTIVE
+    finally:
+        hw.shutdown()
+    assert hw.state is HardwareState.FINALIZED
