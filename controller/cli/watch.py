@@ -38,6 +38,15 @@ def _joint_labels(unit: UnitType | int, count: int) -> list[str]:
     return [f"J{i + 1}" for i in range(count)]
 
 
+def _table(title: str) -> Table:
+    return Table(title=escape(title), expand=True, title_justify="left")
+
+
+def _cell(value: float) -> str:
+    text = f"{value:.1f}"
+    return "0.0" if text == "-0.0" else text
+
+
 def render(sample: StateSample, address: str, rate_hz: float | None = None) -> RenderableType:
     """One frame of the view."""
     state = Text.assemble(
@@ -53,7 +62,7 @@ def render(sample: StateSample, address: str, rate_hz: float | None = None) -> R
         state,
     )
 
-    joints = Table(title=escape("joints [deg; vehicle x, y mm, θ deg]"), expand=True, title_justify="left")
+    joints = _table("joints [deg; vehicle x, y mm, θ deg]")
     joints.add_column("unit")
     joints.add_column("values", overflow="fold")
     for unit in sample.joints:
@@ -63,16 +72,16 @@ def render(sample: StateSample, address: str, rate_hz: float | None = None) -> R
         )
         joints.add_row(getattr(unit.unit, "name", str(unit.unit)), values)
 
-    points = Table(title=escape("control points [original frame]"), expand=True, title_justify="left")
+    points = _table("control points [original frame]")
     for column in ("arm", "x mm", "y mm", "z mm", "roll", "pitch", "yaw", "elbow"):
         points.add_column(column, justify="left" if column == "arm" else "right")
     for cp in sample.controlPoints:
         hg = cp.pose.carPos
         numbers = [*xyz_of(hg), *rpy_of(hg)] if getattr(hg, "shape", None) == (3, 4) else []
-        cells = [f"{v + 0.0:.1f}" for v in numbers] or ["?"] * 6
-        points.add_row(getattr(cp.arm, "name", str(cp.arm)), *cells, f"{cp.pose.elbow:.1f}")
+        cells = [_cell(v) for v in numbers] or ["?"] * 6
+        points.add_row(getattr(cp.arm, "name", str(cp.arm)), *cells, _cell(cp.pose.elbow))
 
-    alarms = Table(title="alarms", expand=True, title_justify="left")
+    alarms = _table("alarms")
     for column in ("code", "type", "module", "description"):
         alarms.add_column(column)
     for alarm in sample.alarms:
