@@ -32,13 +32,20 @@ def hg_matrix(value: object, name: str = "HgMatrix") -> np.ndarray:
     return arr
 
 
+def _cos_sin(deg: float) -> tuple[float, float]:
+    """cos and sin of an angle [deg]; exact at multiples of 90 deg."""
+    if float(deg) % 90.0 == 0.0:
+        return [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][int(float(deg) // 90.0) % 4]
+    rad = math.radians(deg)
+    return math.cos(rad), math.sin(rad)
+
+
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Rotation matrix of roll-pitch-yaw angles [deg]."""
-    r, p, y = (math.radians(a) for a in (roll, pitch, yaw))
-    cr, sr = math.cos(r), math.sin(r)
-    cp, sp = math.cos(p), math.sin(p)
-    cy, sy = math.cos(y), math.sin(y)
-    return np.array(
+    cr, sr = _cos_sin(roll)
+    cp, sp = _cos_sin(pitch)
+    cy, sy = _cos_sin(yaw)
+    return 0.0 + np.array(  # 0.0 + turns -0.0 into 0.0
         [
             [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
             [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
