@@ -232,7 +232,7 @@ class Waiter:
         estimable = bool(self.targets)
         best = 0.0
         with Progress(*columns, console=console, disable=not show, transient=False) as bar:
-            task = bar.add_task(label, total=100.0 if estimable else None)
+            task = bar.add_task(label, total=None)  # pulses until a fraction is known
             try:
                 while True:
                     busy, alarm = self.status()
@@ -244,7 +244,7 @@ class Waiter:
                         return Outcome(False, alarm, time.monotonic() - t0, self._maybe(alarm))
                     if estimable and (f := self.fraction()) is not None:
                         best = max(best, f)
-                        bar.update(task, completed=100.0 * best)
+                        bar.update(task, total=100.0, completed=100.0 * best)
                     time.sleep(POLL)
             except KeyboardInterrupt:
                 self.stop()

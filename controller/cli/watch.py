@@ -7,6 +7,7 @@ Ctrl-C ends it cleanly; ``--once`` prints the first sample and exits.
 
 from __future__ import annotations
 
+import time
 from collections import deque
 
 from rich.console import Console, Group, RenderableType
@@ -21,6 +22,9 @@ from controller.client import codes
 from controller.client.client import Client
 from controller.client.poses import rpy_of, xyz_of
 from controller.client.types import StateSample, UnitType
+
+#: Shortest time between two drawn frames [s].
+MIN_FRAME_PERIOD = 0.05
 
 _STATE_STYLES = {
     codes.READY: "green",
@@ -120,8 +124,12 @@ def run(client: Client, rate_hz: float, once: bool, console: Console) -> int:
         with Live(
             render(first, client.address), console=console, auto_refresh=False, transient=False
         ) as live:
+            shown = time.monotonic()
             for sample in stream:
                 stamps.append(sample.stampS)
+                if time.monotonic() - shown < MIN_FRAME_PERIOD:
+                    continue  # samples faster than the terminal needs: skip the drawing
+                shown = time.monotonic()
                 span = stamps[-1] - stamps[0]
                 rate = (len(stamps) - 1) / span if span > 0 else None
                 live.update(render(sample, client.address, rate), refresh=True)
