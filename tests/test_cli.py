@@ -268,6 +268,7 @@ def test_lists_structs_and_separators(
         (["dual", "servoOn"], "imotion dual: unknown operation 'servoOn'"),
         (["arm", "LEFT", "setSoftLimitJoint", "1", "2", "3"], "expected groups of 2"),
         (["getState", "--bogus"], "unrecognized arguments: --bogus"),
+        (["watch", "--rate", "-1"], "--rate must be a finite number >= 0"),
         ([], "usage: imotion"),
     ],
 )  # fmt: skip

@@ -392,6 +392,11 @@ def test_refused_token_and_server_errors(client: Client, fake: client_fake.FakeD
         client.integrated.pause()
 
 
+def test_client_needs_a_channel() -> None:
+    with pytest.raises(TypeError, match=r"use Client\.connect"):
+        Client("127.0.0.1:50051")  # type: ignore[arg-type]
+
+
 def test_is_local() -> None:
     for address in ["127.0.0.1:50051", "localhost:1", "[::1]:50051", "unix:/run/x.sock",
                     "unix:///run/x.sock", "127.5.0.1:2", "dns:///localhost:50051"]:  # fmt: skip

@@ -187,6 +187,8 @@ def run_watch(rest: list[str], ns: argparse.Namespace) -> int:
                         help="samples per second (default 10)")  # fmt: skip
     parser.add_argument("--once", action="store_true", help="print one frame and exit")
     parser.parse_args(rest, namespace=ns)
+    if not ns.rate >= 0.0 or ns.rate == float("inf"):
+        raise UsageError(f"{PROG} watch: --rate must be a finite number >= 0, got {ns.rate}")
     with connect(ns) as client:
         return watch.run(client, ns.rate, ns.once, Console())
 

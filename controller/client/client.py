@@ -118,6 +118,8 @@ class Client:
         token: str | None = None,
         call_timeout: float | None = DEFAULT_CALL_TIMEOUT,
     ) -> None:
+        if isinstance(channel, str):
+            raise TypeError(f"Client() takes a grpc.Channel; use Client.connect({channel!r})")
         self.address = address
         self.channel = channel
         self.transport = Transport(channel, address, token, call_timeout)
