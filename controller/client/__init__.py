@@ -4,7 +4,7 @@
 
     with Client.connect("127.0.0.1:50051") as c:
         rid, status, message = c.integrated.getState()
-        rid, = c.integrated.moveLinearCartesianAbs(
+        (rid,) = c.integrated.moveLinearCartesianAbs(
             RIGHT, pose([400, -200, 800], [180, 0, 0]), CartesianSpeed(50, 30),
             CartesianAccel(200, 100), False)
         c.wait_until_idle(30)
