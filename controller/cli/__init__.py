@@ -1,0 +1,1 @@
+"""The ``imotion`` command line: every operation of the daemon, ``watch`` and ``list``."""
