@@ -120,15 +120,23 @@ class Controller:
 
     # ------------------------------------------------------------------ loop side
     def _step(self, cycle: int, t: float) -> bool:
-        while True:
-            try:
-                request = self.inbox.get_nowait()
-            except queue.Empty:
-                break
-            self._execute(request)
-        self.core.cycle()
-        self._after_cycle()
-        self.publish()
+        executed = []
+        try:
+            while True:
+                try:
+                    request = self.inbox.get_nowait()
+                except queue.Empty:
+                    break
+                self._execute(request)
+                executed.append(request)
+            self.core.cycle()
+            self._after_cycle()
+            self.publish()
+        finally:
+            # Answer only once the snapshot shows the command's effect: a client that reads
+            # isMoving/getState right after an OK sees the motion it started.
+            for request in executed:
+                request.done.set()
         return not self._shutdown_step()
 
     def run(self) -> None:
@@ -149,7 +157,6 @@ class Controller:
         except Exception as exc:  # a command must never take the loop down
             _log.exception("command %s failed", request.name)
             request.code, request.message = "NG", f"{request.name} failed: {exc}"
-        request.done.set()
 
     def submit(self, name: str, timeout: float = 5.0, **args: Any) -> Request:
         """Hand a command to the loop and wait for its answer (any thread but the loop's)."""
@@ -311,6 +318,8 @@ class Controller:
     def cmd_stop(self) -> None:
         self.queue.clear()
         self.core.stop()
+        if self.core.state == CoreState.PAUSED and self.core.motion is None:
+            self.core.resume()  # paused while idle: stop → Ready as from a paused motion
 
     def cmd_abort(self) -> None:
         self.queue.clear()
