@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import mmap
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -173,9 +174,18 @@ class SnapshotReader(_Mapped):
     def __init__(self, path: Path, n_joints: int):
         super().__init__(path, n_joints, create=False)
 
-    def read(self, max_tries: int = 1000) -> Snapshot:
-        """A consistent copy; raises RuntimeError if the writer never stands still."""
-        for _ in range(max_tries):
+    def read(self, timeout: float = 1.0) -> Snapshot:
+        """A consistent copy; raises RuntimeError if the writer never stands still.
+
+        Between attempts the reader yields the CPU (and, in one process, the GIL): a writer
+        preempted mid-write must be able to finish, which a tight spin would prevent.
+        """
+        deadline = time.monotonic() + timeout
+        tries = 0
+        while tries < 3 or time.monotonic() < deadline:
+            if tries:
+                time.sleep(0 if tries < 10 else 1e-4)
+            tries += 1
             seq = int(self.header[H_SEQ])
             if seq & 1:
                 continue
