@@ -19,7 +19,9 @@ the daemon's ``loop.stats_file`` (written at SIGTERM); each phase's cycles are f
 cycle counter of Monitor.StreamState at its start and end. Prints per mode and phase the wake
 latency p50/p99/max, cycles late by more than half a period, compute p99 and the client call
 rate, the p99 rise under load against the target (<= 30 us, no late cycle), and as the last
-line a JSON object.
+line a JSON object. For reference it first measures the machine's floor: a bare SCHED_FIFO
+thread that only sleeps to 1 ms deadlines (on shared virtual cores even that is late now
+and then).
 """
 
 from __future__ import annotations
@@ -94,12 +96,55 @@ def client_main(address: str, threads: int, start_at: float, seconds: float) -> 
     return 0
 
 
+def bare_main(rate: float, seconds: float) -> int:
+    """The machine's floor: a SCHED_FIFO thread that only sleeps to its deadlines (no
+    Python work, no other thread). Prints {"late", "wake_p99_us", "wake_max_us", "fifo"}."""
+    fifo = True
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(80))
+    except (OSError, AttributeError):
+        fifo = False
+    period = round(1e9 / rate)
+    n = max(1, int(rate * seconds))
+    wake = np.zeros(n)
+    t0 = time.monotonic_ns()
+    for k in range(n):
+        deadline = t0 + (k + 1) * period
+        now = time.monotonic_ns()
+        if deadline > now:
+            time.sleep((deadline - now) / 1e9)
+        wake[k] = (time.monotonic_ns() - deadline) / 1e3
+    result = {
+        "late": int(np.count_nonzero(wake > 0.5 * period / 1e3)),
+        "wake_p99_us": round(float(np.percentile(wake, 99.0)), 1),
+        "wake_max_us": round(float(wake.max()), 1),
+        "fifo": fifo,
+    }
+    print(json.dumps(result), flush=True)
+    return 0
+
+
+def run_bare(rate: float, seconds: float) -> dict[str, Any]:
+    cmd = [sys.executable, __file__, "--bare", "--rate", f"{rate:g}", "--seconds", f"{seconds:g}"]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=seconds + 60, cwd=ROOT)
+    lines = out.stdout.strip().splitlines()
+    return dict(json.loads(lines[-1])) if lines else {"error": out.stderr.strip()[-300:]}
+
+
 # ---------------------------------------------------------------------- the daemon side
 class Daemon:
-    def __init__(self, mode: str, rate: float, stats: Path, log: Path):
+    def __init__(
+        self, mode: str, rate: float, stats: Path, log: Path, switch_interval: float | None
+    ):
         self.address = f"127.0.0.1:{free_port()}"
         self.stats = stats
         cmd = [sys.executable, "-m", "controller.daemon.main", "--robot", "smartpal5"]
+        if switch_interval is not None:  # the same daemon with another GIL switch interval
+            code = (
+                f"import sys; sys.setswitchinterval({switch_interval!r}); "
+                "from controller.daemon.main import main; sys.exit(main())"
+            )
+            cmd = [sys.executable, "-c", code, "--robot", "smartpal5"]
         cmd += ["--hal", "sim", "--rate", f"{rate:g}", "--listen", self.address]
         cmd += ["--set", f"gateway={mode}", "--set", f"loop.stats_file={stats}"]
         env = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -208,7 +253,7 @@ def phase_stats(wake: np.ndarray, compute: np.ndarray, period_us: float) -> dict
 
 def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
     stats_path = work / f"{mode}.npz"
-    daemon = Daemon(mode, args.rate, stats_path, work / f"{mode}.log")
+    daemon = Daemon(mode, args.rate, stats_path, work / f"{mode}.log", args.switch_interval)
     mover: Mover | None = None
     result: dict[str, Any] = {"mode": mode}
     try:
@@ -327,20 +372,30 @@ def main() -> int:
     parser.add_argument("--procs", type=int, default=4, help="client processes")
     parser.add_argument("--rate", type=float, default=1000.0, help="loop rate [Hz]")
     parser.add_argument("--modes", default="process,thread")
+    parser.add_argument(
+        "--switch-interval",
+        type=float,
+        help="run the daemon with this sys.setswitchinterval [s] (default: as shipped)",
+    )
     parser.add_argument("--keep", type=Path, help="keep the daemons' logs and stats files here")
     parser.add_argument("--warmup", type=float, default=2.0, help="[s] before measuring")
     parser.add_argument("--client-start", type=float, default=3.0, help=argparse.SUPPRESS)
     parser.add_argument("--client", metavar="ADDRESS", help=argparse.SUPPRESS)
+    parser.add_argument("--bare", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--threads", type=int, default=8, help=argparse.SUPPRESS)
     parser.add_argument("--start-at", type=float, default=0.0, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.client:
         return client_main(args.client, args.threads, args.start_at, args.seconds)
+    if args.bare:
+        return bare_main(args.rate, args.seconds)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
     bad = [m for m in modes if m not in ("process", "thread")]
     if bad or args.procs < 1 or args.clients < 1:
         print(f"--modes: {bad} not in process, thread (or --procs/--clients < 1)", file=sys.stderr)
         return 2
+    print("measuring the machine's floor (a bare SCHED_FIFO sleep loop) ...", flush=True)
+    bare = run_bare(args.rate, args.seconds)
     results = []
     with tempfile.TemporaryDirectory(prefix="bench_clients-") as tmp:
         work = Path(tmp)
@@ -351,12 +406,19 @@ def main() -> int:
             print(f"running gateway={mode} ...", flush=True)
             results.append(run_mode(mode, args, work))
     print_table(results, args)
+    print(
+        f"machine floor: a bare SCHED_FIFO sleep loop (fifo {bare.get('fifo')}) over "
+        f"{args.seconds:g} s: wake p99 {bare.get('wake_p99_us')} us, max "
+        f"{bare.get('wake_max_us')} us, {bare.get('late')} late cycles"
+    )
     summary = {
         "rate_hz": args.rate,
         "seconds": args.seconds,
         "clients": args.clients,
         "procs": args.procs,
         "max_p99_rise_us": MAX_P99_RISE_US,
+        "switch_interval_s": args.switch_interval,
+        "bare_loop": bare,
         **{r["mode"]: {k: v for k, v in r.items() if k != "mode"} for r in results},
     }
     print(json.dumps(summary))
