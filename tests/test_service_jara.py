@@ -89,7 +89,7 @@ def test_servo_bits_and_alarm_codes(d):
 def test_queue_runs_in_order_and_reports_full(d):
     start, _ = pose(d)
     codes = [
-        code(d.middle.MoveLinearCartesianRel(M("MoveLinearCartesianRel", car_point=car(z=20))))
+        code(d.middle.MoveLinearCartesianRel(M("MoveLinearCartesianRel", car_point=car(z=10))))
         for _ in range(5)
     ]
     assert codes[:4] == [OK] * 4
@@ -97,7 +97,7 @@ def test_queue_runs_in_order_and_reports_full(d):
     assert d.common.GetState(C("GetState")).state & 0x02
     assert d.wait_idle()
     end, _ = pose(d)
-    assert end[2, 3] - start[2, 3] == pytest.approx(80.0, abs=0.05)
+    assert end[2, 3] - start[2, 3] == pytest.approx(40.0, abs=0.05)
 
 
 def test_stop_empties_the_queue(d):

@@ -10,7 +10,6 @@ getRelativePosition (ruling): the left control point in the right control-point 
 from __future__ import annotations
 
 import grpc
-import numpy as np
 
 from controller.conversions import ArgumentError
 from controller.enums import FrameType, RightLeft
@@ -128,8 +127,8 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
         self.arms.require_motion_state(snap)
         q0 = self.ctx.planner.base_q(snap, queued=True)
         goals = {
-            side: self.arms.ptp_goal(snap, q0, side, target, relative)
-            for side, target in targets.items()
+            side: self.arms.ptp_goal(snap, q0, side, target, relative, name)[0]
+            for (side, target), name in zip(targets.items(), ("rArm", "lArm"), strict=True)
         }
         return self.arms.dual_ptp(goals, snap, q0)
 
@@ -151,19 +150,10 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
             (RightLeft.RIGHT, request.r_arm, "rArm"),
             (RightLeft.LEFT, request.l_arm, "lArm"),
         ):
-            s = self.arms.arms[side]
-            deg = seq_arg(values, len(s.joint_names), name, "joint values")
-            joints = self.arms.joints(side)
-            target = np.radians(deg) + (q0[joints] if relative else 0.0)
-            lo, hi = np.radians(s.soft_lower), np.radians(s.soft_upper)
-            for i, joint in enumerate(s.joint_names):
-                if not lo[i] - 1e-9 <= target[i] <= hi[i] + 1e-9:
-                    raise ArgumentError(
-                        f"{name}[{i}] ({joint}): {np.degrees(target[i]):.3f} deg is outside the "
-                        f"soft limit {s.soft_lower[i]:g}..{s.soft_upper[i]:g} deg"
-                    )
+            n = len(self.arms.arms[side].joint_names)
+            deg = seq_arg(values, n, name, "joint values")
             q = q0.copy()
-            q[joints] = target
+            q[self.arms.joints(side)] = self.arms.joint_target(side, deg, q0, relative, name)
             goals[side] = q
         return self.arms.dual_ptp(goals, snap, q0)
 

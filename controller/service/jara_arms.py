@@ -291,24 +291,17 @@ class JaraArms:
     ) -> dict[str, str]:
         settings = self.arms[side]
         snap, q0 = self._start_state()
-        planner = self.ctx.planner
-        with planner.view.at(snap, q0) as kin:
-            goal, _ = self._target(kin, side, settings, target, relative, name)
-        allowed = {elbow_axis(side): True} if planner.view.kin.has_elbow(side) else {}
-        with unreachable_is_value_err():
-            probe, q_goal = planner.ptp_cartesian(
-                snap, q0, side, goal, allowed, {}, False, None, label=f"{side.name} PTP move"
-            )
+        q_goal, goal = self.ptp_goal(snap, q0, side, target, relative, name)
         joints = self.joints(side)
         v, a = settings.joint_speed(100.0 if duration is not None else None)
-        spec = planner.joint(
+        spec = self.ctx.planner.joint(
             q0,
             joints,
             q_goal[joints],
             v,
             a,
             duration,
-            label=probe.label,
+            label=f"{side.name} PTP move",
             absolute=True,
             strict_duration=False,
         )
@@ -325,14 +318,7 @@ class JaraArms:
         settings = self.arms[side]
         _, q0 = self._start_state()
         joints = self.joints(side)
-        target = np.radians(values_deg) + (q0[joints] if relative else 0.0)
-        lo, hi = np.radians(settings.soft_lower), np.radians(settings.soft_upper)
-        for i, name in enumerate(settings.joint_names):
-            if not lo[i] - 1e-9 <= target[i] <= hi[i] + 1e-9:
-                raise ArgumentError(
-                    f"jointPoints[{i}] ({name}): {math.degrees(target[i]):.3f} deg is outside "
-                    f"the soft limit {settings.soft_lower[i]:g}..{settings.soft_upper[i]:g} deg"
-                )
+        target = self.joint_target(side, values_deg, q0, relative, "jointPoints")
         v, a = settings.joint_speed(100.0 if duration is not None else None)
         spec = self.ctx.planner.joint(
             q0,
@@ -348,6 +334,23 @@ class JaraArms:
         q_end = q0.copy()
         q_end[joints] = target
         return self.submit(spec, q_end)
+
+    def joint_target(
+        self, side: RightLeft, values_deg: np.ndarray, q0: np.ndarray, relative: bool, name: str
+    ) -> np.ndarray:
+        """An arm's joint target [rad] from JointPos values [deg]; VALUE_ERR outside the
+        soft limits."""
+        settings = self.arms[side]
+        joints = self.joints(side)
+        target = np.radians(values_deg) + (q0[joints] if relative else 0.0)
+        lo, hi = np.radians(settings.soft_lower), np.radians(settings.soft_upper)
+        for i, joint in enumerate(settings.joint_names):
+            if not lo[i] - 1e-9 <= target[i] <= hi[i] + 1e-9:
+                raise ArgumentError(
+                    f"{name}[{i}] ({joint}): {math.degrees(target[i]):.3f} deg is outside "
+                    f"the soft limit {settings.soft_lower[i]:g}..{settings.soft_upper[i]:g} deg"
+                )
+        return target
 
     def dual_linear(self, targets: dict[RightLeft, CarPos], relative: bool) -> dict[str, str]:
         """Both arms along straight lines, starting and stopping together."""
@@ -398,16 +401,23 @@ class JaraArms:
         return self.submit(spec, q_end)
 
     def ptp_goal(
-        self, snap: Snapshot, q0: np.ndarray, side: RightLeft, target: CarPos, relative: bool
-    ) -> np.ndarray:
-        """IK solution (kinematic configuration) of a JARA Cartesian target."""
+        self,
+        snap: Snapshot,
+        q0: np.ndarray,
+        side: RightLeft,
+        target: CarPos,
+        relative: bool,
+        name: str,
+    ) -> tuple[np.ndarray, pin.SE3]:
+        """IK solution (kinematic configuration) of a JARA Cartesian target, and the target
+        pose (original frame)."""
         settings = self.arms[side]
         planner = self.ctx.planner
         with planner.view.at(snap, q0) as kin:
-            goal, _ = self._target(kin, side, settings, target, relative, side.name)
+            goal, _ = self._target(kin, side, settings, target, relative, name)
         allowed: dict[RedundantAxis, bool] = (
             {elbow_axis(side): True} if planner.view.kin.has_elbow(side) else {}
         )
         with unreachable_is_value_err():
             _, q_goal = planner.ptp_cartesian(snap, q0, side, goal, allowed, {}, False, None)
-        return q_goal
+        return q_goal, goal
