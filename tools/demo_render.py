@@ -57,8 +57,8 @@ class FrameRenderer:
         points = self.data.xpos[1:]
         lo, hi = points.min(axis=0), points.max(axis=0)
         self.camera = mujoco.MjvCamera()
-        self.camera.lookat[:] = (lo + hi) / 2 + np.array([0.1, 0.0, 0.15])
-        self.camera.distance = 0.8 * float(np.linalg.norm(hi - lo)) + 0.6
+        self.camera.lookat[:] = (lo + hi) / 2 + np.array([0.1, 0.0, 0.2])
+        self.camera.distance = 0.95 * float(np.linalg.norm(hi - lo)) + 0.8
         self.camera.azimuth, self.camera.elevation = 145.0, -18.0
         self.renderer = mujoco.Renderer(self.model, height=height, width=width)
 
