@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import signal
 import sys
 import threading
@@ -109,6 +110,15 @@ def main(argv: list[str] | None = None) -> int:
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
     signal.signal(signal.SIGINT, lambda *_: done.set())
+    parent = os.getppid()
+
+    def watch_parent() -> None:  # imotiond killed outright: do not serve on as an orphan
+        while not done.wait(0.5):
+            if os.getppid() != parent:
+                _log.error("imotiond (pid %d) is gone: stopping", parent)
+                done.set()
+
+    threading.Thread(target=watch_parent, name="parent-watch", daemon=True).start()
     print(f"READY {address}", flush=True)
     _log.info("serving on %s", address)
     done.wait()
