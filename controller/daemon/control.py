@@ -218,6 +218,7 @@ class Controller:
         if self.core.is_moving and now < self._shutdown_deadline:
             return False
         self.core.servo_off()
+        self.publish()  # the last snapshot says so (the gateway may answer a little longer)
         _log.info("shutdown: servo off")
         return True
 

@@ -1,0 +1,318 @@
+"""controller.daemon.control: the loop-side Controller without gRPC.
+
+Commands are called in the test thread between explicit cycles (``_step``), as the loop
+thread would; one test goes through :meth:`Controller.submit` from another thread.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from controller.alarms import AlarmCode
+from controller.core import CoreState
+from controller.daemon import snapshot as snap
+from controller.daemon.control import CartesianBox, Controller, Refused
+from controller.daemon.motion_specs import JointMoveSpec
+from controller.enums import FrameType, RightLeft
+from controller.kinematics import Kinematics
+from controller.motion.motions import Motion
+from hal.ideal_backend import IdealBackend
+from hal.interface import HardwareFault
+from tests.support import robot
+
+RATE = 250.0
+
+
+@pytest.fixture
+def ctl(tmp_path: Path) -> Iterator[Controller]:
+    r = robot("pa10")
+    hw = IdealBackend(r, 1.0 / RATE)
+    hw.configure()
+    c = Controller(r, hw, RATE, tmp_path / "snapshot", queue_depth=2)
+    try:
+        yield c
+    finally:
+        c.close()
+
+
+def step(c: Controller, n: int = 1) -> None:
+    for _ in range(n):
+        c._step(c.core.cycles, 0.0)
+
+
+def run_until_idle(c: Controller, limit: int = 5000) -> None:
+    for _ in range(limit):
+        step(c)
+        if not c.core.is_moving and not c.queue:
+            return
+    raise AssertionError("still moving")
+
+
+def read(c: Controller) -> snap.Snapshot:
+    r = snap.SnapshotReader(c.writer.path, len(c.hw.joint_names))
+    try:
+        return r.read()
+    finally:
+        r.close()
+
+
+def j1_move(c: Controller, target: float, speed: float = 1.0, planned: bool = True):
+    """J1 (kinematic index 0) to ``target`` [rad]."""
+    return JointMoveSpec(
+        joints=np.array([0]),
+        target=np.array([target]),
+        speed=np.array([speed]),
+        accel=np.array([4.0]),
+        planned_from=c.core.kin.q.copy() if planned else None,
+        label=f"J1 to {target}",
+    )
+
+
+def refused(fn, *args, **kw) -> Refused:  # type: ignore[no-untyped-def]
+    with pytest.raises(Refused) as err:
+        fn(*args, **kw)
+    assert err.value.message
+    return err.value
+
+
+def ready(c: Controller) -> Controller:
+    c.cmd_servo_on()
+    step(c)
+    assert c.core.state == CoreState.READY
+    return c
+
+
+# ----------------------------------------------------------------------------- refusals
+def test_refusal_codes_by_state(ctl: Controller):
+    step(ctl)
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "NOT_SV_ON_ERR"
+    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == "NOT_SV_ON_ERR"
+    ready(ctl)
+    assert ctl.cmd_start(j1_move(ctl, 0.5, speed=0.2)) == "started"
+    step(ctl)
+    # Spec A never queues: busy is STATUS_ERR
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "STATUS_ERR"
+    ctl.cmd_pause()
+    step(ctl, 100)
+    assert ctl.core.state == CoreState.PAUSED
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "STATUS_ERR"
+    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == "STATUS_ERR"
+    ctl.cmd_abort()
+    ctl.hw.inject_fault(HardwareFault(int(AlarmCode.DRIVE_FAULT), "J3", "test"))  # type: ignore[attr-defined]
+    step(ctl)
+    assert ctl.core.state == CoreState.ALARM
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "STATUS_ERR"
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1), queued=True).code == "STATUS_ERR"
+    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == "STATUS_ERR"
+    assert refused(ctl.cmd_servo_on).code == "NG"
+    ctl.cmd_clear_alarms()
+    step(ctl)
+    ready(ctl)  # a persisting drive fault does not block recovery after clearAlarms
+
+
+def test_a_plan_from_an_old_state_is_refused(ctl: Controller):
+    ready(ctl)
+    stale = j1_move(ctl, 0.3)
+    ctl.cmd_start(j1_move(ctl, 0.2, speed=2.0))
+    run_until_idle(ctl)
+    err = refused(ctl.cmd_start, stale)
+    assert err.code == "STATUS_ERR" and "send it again" in err.message
+
+
+def test_unknown_and_failing_commands_answer_ng(ctl: Controller):
+    answers = []
+
+    def client() -> None:
+        answers.append(ctl.submit("no_such_command", timeout=10.0))
+        answers.append(ctl.submit("gripper", timeout=10.0, side=RightLeft.RIGHT))  # arg missing
+        answers.append(ctl.submit("status", timeout=10.0))
+
+    thread = threading.Thread(target=client)
+    thread.start()
+    while thread.is_alive():
+        step(ctl)
+    unknown, failing, status = answers
+    assert not unknown.ok and unknown.code == "NG" and "no_such_command" in unknown.message
+    assert not failing.ok and failing.code == "NG" and "gripper failed" in failing.message
+    assert status.ok and status.value == {"state": "servo off", "queue": 0}
+
+
+def test_an_answer_comes_after_the_snapshot_shows_it(ctl: Controller):
+    """A client that reads the snapshot right after an OK start sees the motion."""
+    ready(ctl)
+    seen: list[bool] = []
+
+    def client() -> None:
+        request = ctl.submit("start", timeout=10.0, spec=j1_move(ctl, 0.4))
+        assert request.ok, request.message
+        seen.append(read(ctl).moving)
+
+    thread = threading.Thread(target=client)
+    thread.start()
+    while thread.is_alive():
+        step(ctl)
+    assert seen == [True]
+
+
+def test_submit_times_out_without_a_loop(ctl: Controller):
+    request = ctl.submit("status", timeout=0.05)
+    assert not request.ok and request.code == "NG" and "did not answer" in request.message
+
+
+# ----------------------------------------------------------------------------- queue
+def test_queue_depth_and_order(ctl: Controller):
+    ready(ctl)
+    targets = [0.1, 0.2, 0.3]
+    assert ctl.cmd_start(j1_move(ctl, targets[0], planned=False), queued=True) == "started"
+    for t in targets[1:]:
+        assert ctl.cmd_start(j1_move(ctl, t, planned=False), queued=True) == "queued"
+    step(ctl)
+    s = read(ctl)
+    assert s.queue == 2 and s.queue_depth == 2 and s.flags & snap.F_QUEUE_FULL
+    err = refused(ctl.cmd_start, j1_move(ctl, 0.4, planned=False), queued=True)
+    assert err.code == "FULL_MOTION_QUEUE_ERR" and "2 waiting" in err.message
+    run_until_idle(ctl)
+    assert ctl.core.kin.q[0] == pytest.approx(targets[-1], abs=1e-6)
+    s = read(ctl)
+    assert s.started == 3 and s.finished == 3 and s.queue == 0
+    assert not s.flags & snap.F_QUEUE_FULL
+    assert ctl.core.state == CoreState.READY
+
+
+@pytest.mark.parametrize("how", ["stop", "abort", "servo_off"])
+def test_stop_abort_and_servo_off_empty_the_queue(ctl: Controller, how: str):
+    ready(ctl)
+    ctl.cmd_start(j1_move(ctl, 0.5, speed=0.5, planned=False), queued=True)
+    ctl.cmd_start(j1_move(ctl, -0.5, planned=False), queued=True)
+    step(ctl, 20)
+    assert len(ctl.queue) == 1
+    getattr(ctl, f"cmd_{how}")()
+    assert not ctl.queue
+    if how == "abort":
+        assert ctl.core.state == CoreState.READY and not ctl.core.is_moving
+    run_until_idle(ctl)
+    step(ctl, 10)
+    assert ctl.started == 1  # the queued one never started
+    assert 0.0 < ctl.core.kin.q[0] < 0.5
+
+
+def test_a_queued_motion_that_cannot_start_raises_an_alarm(ctl: Controller):
+    class Broken(JointMoveSpec):
+        def build(self, kin: Kinematics, dt: float) -> Motion:
+            raise ValueError("no time law")
+
+    ready(ctl)
+    ctl.cmd_start(j1_move(ctl, 0.1, planned=False), queued=True)
+    broken = Broken(np.array([0]), np.array([0.0]), np.array([1.0]), np.array([1.0]))
+    ctl.cmd_start(broken, queued=True)
+    ctl.cmd_start(j1_move(ctl, 0.3, planned=False), queued=True)
+    run_until_idle(ctl)
+    assert ctl.core.state == CoreState.ALARM and not ctl.queue
+    (alarm,) = ctl.core.alarms
+    assert alarm.code == AlarmCode.TRAJECTORY_FAILURE and "no time law" in alarm.description
+
+
+# ----------------------------------------------------------------------------- pause, stop
+def test_stop_from_idle_pause_goes_ready(ctl: Controller):
+    ready(ctl)
+    ctl.cmd_pause()
+    step(ctl)
+    assert read(ctl).core_state == "paused" and read(ctl).flags & snap.F_PAUSED
+    ctl.cmd_stop()
+    step(ctl)
+    assert ctl.core.state == CoreState.READY
+
+
+def test_settings_refused_while_moving(ctl: Controller):
+    ready(ctl)
+    ctl.cmd_start(j1_move(ctl, 0.5, speed=0.5))
+    step(ctl)
+    assert refused(ctl.cmd_reset_original_frame).code == "STATUS_ERR"
+    assert refused(ctl.cmd_set_control_point_offset, RightLeft.RIGHT, np.eye(4)).code == (
+        "STATUS_ERR"
+    )
+    assert refused(ctl.cmd_set_cartesian_box, RightLeft.RIGHT, None).code == "STATUS_ERR"
+    idx = np.array([0])
+    limits = (np.array([-1.0]), np.array([1.0]))
+    assert refused(ctl.cmd_set_joint_limits, idx, *limits).code == "STATUS_ERR"
+
+
+def test_joint_limits(ctl: Controller):
+    ready(ctl)
+    idx = np.array([0, 1])
+    err = refused(ctl.cmd_set_joint_limits, idx, np.array([0.1, -1.0]), np.array([1.0, 1.0]))
+    assert err.code == "VALUE_ERR" and "J1" in err.message
+    ctl.cmd_set_joint_limits(idx, np.array([-0.2, -1.0]), np.array([0.2, 1.0]))
+    box = ctl.core.ik.box
+    assert box.q_min[0] == -0.2 and box.q_max[0] == 0.2 and box.q_max[1] == 1.0
+
+
+# ----------------------------------------------------------------------------- supervision
+def test_leaving_the_cartesian_box_raises_alarm_5(ctl: Controller):
+    ready(ctl)
+    p = ctl.core.kin.pose(RightLeft.RIGHT, FrameType.CURRENT_FRAME).translation
+    margin = np.array([0.02, 0.02, 0.02])
+    box = CartesianBox(p - margin, p + margin, np.eye(4))
+    ctl.cmd_set_cartesian_box(RightLeft.RIGHT, box)
+    ctl.cmd_start(j1_move(ctl, 0.5, speed=1.0))  # J1 swings the arm sideways
+    for _ in range(2000):
+        step(ctl)
+        if ctl.core.state != CoreState.BUSY:
+            break
+    assert ctl.core.state == CoreState.ALARM
+    (alarm,) = ctl.core.alarms
+    assert alarm.code == AlarmCode.CARTESIAN_SOFT_LIMIT and alarm.module == "right_arm"
+    assert "left the Cartesian soft limit" in alarm.description
+    q = ctl.core.kin.pose(RightLeft.RIGHT, FrameType.CURRENT_FRAME).translation
+    assert np.max(np.abs(q - p)) < 0.03  # stopped just outside the 20 mm margin
+    # clearing the box and the alarm recovers
+    ctl.cmd_clear_alarms()
+    ctl.cmd_set_cartesian_box(RightLeft.RIGHT, None)
+    ready(ctl)
+
+
+def test_box_is_in_the_arm_frame(ctl: Controller):
+    """A base offset moves the box with the arm frame: the same pose is inside or outside."""
+    ready(ctl)
+    p = ctl.core.kin.pose(RightLeft.RIGHT, FrameType.CURRENT_FRAME).translation
+    shift = pin.SE3(np.eye(3), np.array([0.5, 0.0, 0.0])).homogeneous
+    ctl.cmd_set_cartesian_box(
+        RightLeft.RIGHT, CartesianBox(p - 0.01, p + 0.01, shift)
+    )  # p sits 0.5 m outside in the arm frame
+    ctl.cmd_start(j1_move(ctl, 0.01, speed=1.0))
+    step(ctl, 3)
+    assert ctl.core.state == CoreState.ALARM
+
+
+def test_shutdown_decelerates_then_servo_off(ctl: Controller):
+    ready(ctl)
+    ctl.stop_timeout = 5.0
+    ctl.cmd_start(j1_move(ctl, 1.0, speed=1.0))
+    ctl.cmd_start(j1_move(ctl, 0.0, planned=False), queued=True)
+    step(ctl, 100)
+    ctl.shutdown_requested.set()
+    cycles = 0
+    while ctl._step(ctl.core.cycles, 0.0):  # True: keep running
+        cycles += 1
+        assert cycles < 2000
+    assert cycles > 5  # it decelerated over several cycles
+    assert ctl.core.state == CoreState.SERVO_OFF and not ctl.queue
+    assert 0.0 < ctl.core.kin.q[0] < 1.0
+    assert not read(ctl).servo_on
+
+
+def test_shutdown_servo_off_after_the_timeout(ctl: Controller):
+    ready(ctl)
+    ctl.stop_timeout = 1e-6  # no time to decelerate
+    ctl.cmd_start(j1_move(ctl, 1.0, speed=1.0))
+    step(ctl, 100)
+    ctl.shutdown_requested.set()
+    ctl._step(ctl.core.cycles, 0.0)  # starts the stop, sets the deadline
+    assert ctl._step(ctl.core.cycles, 0.0) is False  # past it: servo off, end
+    assert ctl.core.state == CoreState.SERVO_OFF and ctl.core.kin.q[0] < 1.0
