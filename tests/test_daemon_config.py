@@ -172,7 +172,7 @@ def test_security_off_loopback_needs_tls_and_a_token(tmp_path: Path):
     only_tls = security_problems(_cfg(listen="0.0.0.0:50051", **tls))
     assert len(only_tls) == 1 and "token" in only_tls[0]
     only_read = _cfg(listen="0.0.0.0:50051", **tls, **{"security.tokens.read": "r"})
-    assert len(security_problems(only_read)) == 1  # the motion token is the required one
+    assert any("security.tokens.motion" in p for p in security_problems(only_read))
     full = _cfg(listen="0.0.0.0:50051", **tls, **{"security.tokens.motion": "m"})
     assert security_problems(full) == []
     assert security_problems(_cfg(listen="unix:/tmp/imotion.sock")) == []
@@ -187,3 +187,14 @@ def test_security_tls_files(tmp_path: Path):
         _cfg(**{"security.tls_cert": str(cert), "security.tls_key": str(tmp_path / "no.pem")})
     )
     assert missing == [f"security.tls_key: {tmp_path / 'no.pem'} is not a readable file"]
+
+
+def test_security_token_rules_on_loopback():
+    read_only = _cfg(**{"security.tokens.read": "r"})
+    (problem,) = security_problems(read_only)
+    assert "lock every client out" in problem
+    strict = _cfg(**{"security.require_tokens_locally": True})
+    (problem,) = security_problems(strict)
+    assert "require_tokens_locally" in problem
+    both = _cfg(**{"security.require_tokens_locally": True, "security.tokens.motion": "m"})
+    assert security_problems(both) == []

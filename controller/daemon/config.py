@@ -53,7 +53,9 @@ class SecurityConfig(_Strict):
     tls_cert: Path | None = None  #: PEM certificate chain of the server
     tls_key: Path | None = None  #: PEM private key
     tokens: TokensConfig = TokensConfig()
-    #: Also demand tokens on loopback / Unix sockets (off: local clients are trusted).
+    #: Refuse to start on loopback / a Unix socket without a motion token too. (Configured
+    #: tokens are always checked, wherever the daemon listens; without tokens local clients
+    #: are trusted.)
     require_tokens_locally: bool = False
 
 
@@ -157,6 +159,15 @@ def security_problems(cfg: DaemonConfig) -> list[str]:
         path = getattr(sec, name)
         if path is not None and not Path(path).is_file():
             problems.append(f"security.{name}: {path} is not a readable file")
+    if sec.tokens.read and not sec.tokens.motion:
+        problems.append(
+            "security.tokens: a read token without a motion token would lock every client out "
+            "of motion: set security.tokens.motion"
+        )
+    elif sec.require_tokens_locally and not sec.tokens.motion:
+        problems.append(
+            "security.require_tokens_locally: true, but security.tokens.motion is not set"
+        )
     if not is_local(cfg.listen):
         if sec.tls_cert is None:
             problems.append(
