@@ -397,8 +397,9 @@ class CPHoldMotion(AxisPathMotion):
     """Redundant axes to ``targets`` (SI) with the control points of ``held`` fixed.
 
     ``speed``/``accel`` per axis in ``targets`` order (vehicleX/Y: the translation limits).
-    All redundant axes may move; the joints of arms neither held nor carrying a moved elbow
-    are frozen. On a differential base the vehicle turns, drives and turns (vehicleTheta is
+    Only the axes in ``targets`` move: the joints of arms neither held nor carrying a moved
+    elbow are frozen, and so are the waist and the vehicle when none of their axes is a
+    target. On a differential base the vehicle turns, drives and turns (vehicleTheta is
     added, held at its value, when the targets do not name it).
     """
 
@@ -437,6 +438,12 @@ class CPHoldMotion(AxisPathMotion):
         for side in kin.arms:
             if side not in moving:
                 frozen[arm_joints(kin, side)] = True
+        # Waist and vehicle move only when one of their axes has a target: an elbow swing
+        # must not be helped along by the base.
+        if not any(a.is_lumbar for a in self.axes):
+            frozen[kin.unit_indices(UnitType.LUMBER)] = True
+        if not any(a.is_vehicle for a in self.axes):
+            frozen[kin.unit_indices(UnitType.VEHICLE)] = True
         return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen)
 
 

@@ -19,7 +19,7 @@ from controller import __version__
 from controller.conversions import ArgumentError
 from controller.daemon.motion_specs import MotionSpec
 from controller.daemon.snapshot import Snapshot
-from controller.enums import FrameType, UnitType
+from controller.enums import FrameType, RightLeft, UnitType
 from controller.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
@@ -427,6 +427,8 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
                 if abs(delta) > 1e-9:
                     positive_arg(v, f"speed.{name}")
                     positive_arg(a, f"accel.{name}")
+                if abs(delta) <= 1e-9 and not axis.is_vehicle:
+                    continue  # not moving: held (its joints are frozen)
                 targets[axis] = goal
                 speeds.append(v if v > 0 else 1.0)
                 accels.append(a if a > 0 else 1.0)
@@ -437,9 +439,21 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
                             f"{pos_name}.{name}: {math.degrees(goal):.2f} deg is outside the "
                             f"waist's range {math.degrees(lo):.1f}..{math.degrees(hi):.1f} deg"
                         )
+        vehicle_moves = any(
+            a.is_vehicle and abs(targets[a] - self._current(snap, q0, a)) > 1e-9 for a in targets
+        )
+        if not vehicle_moves:  # the vehicle's three axes go together: hold them all
+            for axis in [a for a in targets if a.is_vehicle]:
+                k = list(targets).index(axis)
+                del targets[axis], speeds[k], accels[k]
         require_ready(snap, sv_on_code=False)
+        held: tuple[RightLeft, ...] = (side,)
+        other = RightLeft.LEFT if side == RightLeft.RIGHT else RightLeft.RIGHT
+        body_moves = any(a.is_lumbar or a.is_vehicle for a in targets)
+        if body_moves and other in self.view.arms and elbow_axis(other) not in targets:
+            held = (side, other)  # the body moves under both hands: hold both
         spec = planner.cp_hold(
-            q0, (side,), targets, np.array(speeds), np.array(accels), label="CP-hold move"
+            q0, held, targets, np.array(speeds), np.array(accels), label="CP-hold move"
         )
         self.ctx.call("start", sv_on_code=False, spec=spec)
 
@@ -450,6 +464,10 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
     @rpc(pb.MoveCPHoldRelResponse)
     def MoveCPHoldRel(self, request):
         self._cp_hold(request, relative=True)
+
+    def _current(self, snap: Snapshot, q0: np.ndarray, axis: RedundantAxis) -> float:
+        with self.ctx.planner.view.at(snap, q0) as kin:
+            return axis_value(kin, axis)
 
     # ------------------------------------------------------------------ Cartesian
     def _linear(self, request, target_field: str, frame: int | None) -> None:
