@@ -1116,11 +1116,6 @@ def test_linear_move_stays_on_the_line_in_stream_state(d: TestDaemon):
     assert samples[-1].loop.cycles > 0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="motion core: the Cartesian time law ignores joint acceleration limits, so a "
-    "500 mm/s² stop overshoots the end of this line by ~2.5 mm (ideal drives)",
-)
 def test_linear_move_stays_on_the_line_at_high_acceleration(d: TestDaemon):
     seen = _watch_linear_move(d, LINE, accel=500.0)
     assert seen["deviation"].max() < 0.1, f"max deviation {seen['deviation'].max():.3f} mm"

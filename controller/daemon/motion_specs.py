@@ -75,6 +75,8 @@ class CartesianMoveSpec(MotionSpec):
     elbow: float | None = None  #: target elbow angle [rad]
     via: np.ndarray | None = None  #: 4x4 via point of an arc
     duration: float | None = None
+    #: Path-parameter rate [1/s] and acceleration [1/s²] the joints allow (from planning).
+    path_limits: tuple[float, float] | None = None
 
     def build(self, kin: Kinematics, dt: float) -> Motion:
         start = kin.pose(self.side)
@@ -96,6 +98,7 @@ class CartesianMoveSpec(MotionSpec):
             self.hold_other,
             self.elbow,
             self.duration,
+            self.path_limits,
         )
 
 
@@ -108,11 +111,12 @@ class DualCartesianSpec(MotionSpec):
     accel: tuple[float, float]
     elbows: dict[RightLeft, float | None] = field(default_factory=dict)
     duration: float | None = None
+    path_limits: tuple[float, float] | None = None
 
     def build(self, kin: Kinematics, dt: float) -> Motion:
         paths = {side: LinePath(kin.pose(side), pin.SE3(t)) for side, t in self.targets.items()}
         return DualCartesianMotion(
-            kin, dt, paths, self.speed, self.accel, self.elbows, self.duration
+            kin, dt, paths, self.speed, self.accel, self.elbows, self.duration, self.path_limits
         )
 
 

@@ -168,7 +168,9 @@ class CartesianMotion(Motion):
     ``speed``/``accel``: (translation, rotation) limits [m/s, rad/s] / [m/s², rad/s²].
     ``allowed``: redundant axes tracking may use (others held); ``hold_other``: keep the other
     arm's control point fixed (else its joints are frozen). ``elbow``: target elbow angle
-    [rad] reached along the path (JARA CarPosWithElbow), or None.
+    [rad] reached along the path (JARA CarPosWithElbow), or None. ``path_limits``: bounds on
+    the path parameter's rate [1/s] and acceleration [1/s²] from the joints' limits along
+    this path (see ReachabilityChecker.path_parameter_limits).
     """
 
     def __init__(
@@ -184,11 +186,14 @@ class CartesianMotion(Motion):
         hold_other: bool = False,
         elbow: float | None = None,
         duration: float | None = None,
+        path_limits: tuple[float, float] | None = None,
     ):
         self.kin = kin
         self.side = side
         self.path = path
         v, a = path.limits(speed, accel)
+        if path_limits is not None:  # what the joints allow along this path
+            v, a = min(v, path_limits[0]), min(a, path_limits[1])
         if not math.isfinite(v):  # zero-length path
             v, a = 1.0, 1.0
         #: Limits of the path parameter [1/s, 1/s²].
@@ -255,6 +260,7 @@ class DualCartesianMotion(Motion):
         accel: tuple[float, float],
         elbows: dict[RightLeft, float | None] | None = None,
         duration: float | None = None,
+        path_limits: tuple[float, float] | None = None,
     ):
         self.kin = kin
         self.arms = {
@@ -265,6 +271,8 @@ class DualCartesianMotion(Motion):
         }
         v = min(m.profile_limits[0] for m in self.arms.values())
         a = min(m.profile_limits[1] for m in self.arms.values())
+        if path_limits is not None:
+            v, a = min(v, path_limits[0]), min(a, path_limits[1])
         self.profile = PathProfile(dt, v, a, duration)
 
     def setup(self) -> IKSetup:

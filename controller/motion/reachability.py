@@ -27,7 +27,7 @@ from controller.enums import RightLeft
 from controller.kinematics import Kinematics
 from controller.motion.motions import IKSetup
 from controller.motion.paths import ArcPath, LinePath
-from controller.qp.limits import AxisRows
+from controller.qp.limits import BRAKING_SHARE, AxisRows
 from controller.qp.solver import ProxQPSolver
 from controller.qp.tasks import pose_error
 from controller.redundant_axes import RedundantAxis, available_axes, axis_jacobian
@@ -61,6 +61,12 @@ class ReachabilityChecker:
         self.q_max = np.array([s.upper for s in specs])
         #: Configuration at the last sample :meth:`check` solved (the path's end on success).
         self.last_q = np.zeros(self.kin.nv)
+        #: Path parameter and configuration at every sample :meth:`check` solved.
+        self.path_s: list[float] = []
+        self.path_q: list[np.ndarray] = []
+        specs_all = specs
+        self.v_max = np.array([sp.velocity for sp in specs_all])
+        self.a_max = np.array([sp.acceleration for sp in specs_all])
 
     def check(
         self,
@@ -75,10 +81,14 @@ class ReachabilityChecker:
         samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
         self.last_q = q
+        self.path_s = [float(samples[0])]
+        self.path_q = [q.copy()]
         for s in samples[1:]:
             target = path.at(s)
             q, err = self._solve(q, side, target, setup.frozen, hold, held)
             self.last_q = q
+            self.path_s.append(float(s))
+            self.path_q.append(q.copy())
             where = "the target" if s >= 1.0 else f"the path at {100 * s:.0f} %"
             if err is not None:
                 return f"{where} is not reachable: {err}"
@@ -90,6 +100,26 @@ class ReachabilityChecker:
                     "at speed; allow more redundant axes or choose another target"
                 )
         return None
+
+    def path_parameter_limits(self, share: float = 0.8) -> tuple[float, float]:
+        """Limits on the path parameter's rate [1/s] and acceleration [1/s²] that keep every
+        joint within ``share`` of its speed limit and of its braking deceleration
+        (BRAKING_SHARE × its acceleration limit) along the last checked path, from the joint
+        motion per unit of path (dq/ds) between samples. ``(inf, inf)`` for a still path."""
+        if len(self.path_q) < 2:
+            return math.inf, math.inf
+        q = np.array(self.path_q)
+        ds = np.diff(np.array(self.path_s))
+        ok = ds > 1e-12
+        if not ok.any():
+            return math.inf, math.inf
+        slope = np.max(np.abs(np.diff(q, axis=0)[ok] / ds[ok, None]), axis=0)  # per joint
+        moving = slope > 1e-12
+        if not moving.any():
+            return math.inf, math.inf
+        v = share * float(np.min(self.v_max[moving] / slope[moving]))
+        a = share * BRAKING_SHARE * float(np.min(self.a_max[moving] / slope[moving]))
+        return v, a
 
     def solve_pose(
         self,

@@ -360,6 +360,7 @@ class JaraArms:
         elbows: dict[RightLeft, float | None] = {}
         q_end = q0.copy()
         speeds, accels = [], []
+        path_limits: list[tuple[float, float]] = []
         for side, target in targets.items():
             settings = self.arms[side]
             with planner.view.at(snap, q0) as kin:
@@ -369,9 +370,11 @@ class JaraArms:
             accels.append(accel)
             allowed = {elbow_axis(side): True} if elbow is not None else {}
             with unreachable_is_value_err():
-                _, q_side = planner.cartesian(
+                arm_spec, q_side = planner.cartesian(
                     snap, q0, side, goal, speed, accel, allowed, {}, False, elbow=elbow
                 )
+            if arm_spec.path_limits is not None:
+                path_limits.append(arm_spec.path_limits)
             joints = self.joints(side)
             q_end[joints] = q_side[joints]
             goals[side] = goal.homogeneous.copy()
@@ -381,6 +384,11 @@ class JaraArms:
             speed=(min(s[0] for s in speeds), min(s[1] for s in speeds)),
             accel=(min(a[0] for a in accels), min(a[1] for a in accels)),
             elbows=elbows,
+            path_limits=(
+                (min(p[0] for p in path_limits), min(p[1] for p in path_limits))
+                if path_limits
+                else None
+            ),
             planned_from=q0.copy(),
             label="dual linear move",
         )

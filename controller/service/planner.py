@@ -107,8 +107,11 @@ class Planner:
             hold = other_side(side) if spec.hold_other else None
             reason = self.checker.check(kin, side, motion.path, motion.setup(), hold)  # type: ignore[attr-defined]
             q_end = self.checker.last_q.copy()
+            limits = self.checker.path_parameter_limits()
         if reason is not None:
             raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
+        if math.isfinite(limits[0]):
+            spec.path_limits = limits
         return spec, q_end
 
     def ptp_cartesian(
