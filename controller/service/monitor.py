@@ -2,7 +2,8 @@
 
 Samples come from the shared-memory snapshot, so any number of streams costs the control
 loop nothing. ``rate_hz`` 0 means the configured default; negative or non-finite is
-INVALID_ARGUMENT; rates above the loop rate are clamped to it.
+INVALID_ARGUMENT; rates above the loop rate are clamped to it, rates below
+:data:`MIN_RATE_HZ` raised to it. A cancelled stream frees its slot at once, however slow.
 """
 
 from __future__ import annotations
@@ -18,6 +19,9 @@ from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.service.base import Context, alarm_msgs, car_pos_msg
 from controller.service.codes import spec_a_state
+
+#: Slowest stream rate [Hz] (slower requests get this).
+MIN_RATE_HZ = 0.01
 
 
 class MonitorServicer(pb_grpc.MonitorServicer):
@@ -68,23 +72,26 @@ class MonitorServicer(pb_grpc.MonitorServicer):
             context.abort(grpc.StatusCode.INVALID_ARGUMENT, f"rate_hz: {rate} must be >= 0")
         if rate == 0:
             rate = self.ctx.config.monitor.default_rate_hz
-        rate = min(rate, self.ctx.config.loop.rate_hz)
+        rate = min(max(rate, MIN_RATE_HZ), self.ctx.config.loop.rate_hz)
         if not self._streams.acquire(blocking=False):
             context.abort(
                 grpc.StatusCode.RESOURCE_EXHAUSTED,
                 f"at most {self.ctx.config.monitor.max_streams} StreamState streams at once",
             )
+        ended = threading.Event()  # set when the client cancels or the call ends
+        if not context.add_callback(ended.set):
+            ended.set()
         try:
             period = 1.0 / rate
             next_t = time.monotonic()
             sequence = 0
-            while context.is_active():
+            while context.is_active() and not ended.is_set():
                 yield self.sample(sequence)
                 sequence += 1
                 next_t += period
                 delay = next_t - time.monotonic()
                 if delay > 0:
-                    time.sleep(delay)
+                    ended.wait(delay)
                 else:
                     next_t = time.monotonic()
         finally:
