@@ -272,3 +272,27 @@ def test_solve_pose_out_of_reach_gives_a_reason():
     )
     _, reason = ReachabilityChecker(kin).solve_pose(kin, RightLeft.RIGHT, far, motion.setup())
     assert reason is not None and "not reachable" in reason
+
+
+def test_path_parameter_limits_keep_every_joint_within_its_limits():
+    kin = at_home("smartpal5")
+    path = line_from_hand(kin, (0.08, 0.04, -0.06))
+    checker = ReachabilityChecker(kin)
+    assert check(kin, path, ELBOW, checker=checker) is None
+    v_s, a_s = checker.path_parameter_limits(share=1.0)
+    assert 0.0 < v_s < math.inf and 0.0 < a_s < math.inf
+    q = np.array(checker.path_q)
+    slope = np.abs(np.diff(q, axis=0) / np.diff(checker.path_s)[:, None])
+    # at the limiting rate no joint exceeds its speed or braking deceleration anywhere
+    assert np.all(slope * v_s <= checker.v_max * (1 + 1e-9))
+    assert np.all(slope * a_s <= 0.5 * checker.a_max * (1 + 1e-9))
+    # and one joint is exactly at a bound (the limits are tight, not arbitrary)
+    assert np.isclose(np.max(slope * v_s / checker.v_max), 1.0) or np.isclose(
+        np.max(slope * a_s / (0.5 * checker.a_max)), 1.0
+    )
+
+
+def test_path_parameter_limits_of_a_still_path_are_unbounded():
+    kin = at_home("pa10")
+    checker = ReachabilityChecker(kin)
+    assert checker.path_parameter_limits() == (math.inf, math.inf)
