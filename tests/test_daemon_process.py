@@ -385,3 +385,16 @@ def test_watchdog_only_while_the_loop_advances(short_dir: Path, monkeypatch: pyt
     finally:
         fake.controller.shutdown_requested.set()
         sock.close()
+
+
+def test_a_port_in_use_fails_naming_the_address():
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        d = _run("--hal", "ideal", "--listen", f"127.0.0.1:{port}", "--rate", "250")
+        try:
+            assert d.wait_exit(START_BOUND) == 1, d.log
+        finally:
+            d.kill()
+    assert re.search(rf"level=error .*cannot start the gateway.*127\.0\.0\.1:{port}", d.log)
