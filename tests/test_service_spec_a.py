@@ -791,6 +791,8 @@ def test_invalid_arguments_pa10(pa10: TestDaemon, name: str, build: Any, fragmen
 def test_pa10_right_is_the_arm_and_lumbar_vehicle_masks_are_ignored(pa10: TestDaemon):
     r = ok(select(pa10, elbow=True, lumbar_ry=True, vehicle_x=True))
     assert "lumbarRy" in r.return_id.comment and "vehicleX" in r.return_id.comment
+    assert "leftElbow" not in r.return_id.comment  # the elbow bit is the one arm's elbow
+    assert select(pa10, elbow=True).return_id.comment == "OK"
     ok(pa10.spec_a.MoveGripper(pb.MoveGripperRequest(type=RIGHT, angle_ratio=30)))
     assert pa10.wait_idle(10.0)
     assert ok(pa10.spec_a.GetGripperPos(pb.GetGripperPosRequest(type=RIGHT))).angle_ratio == 30

@@ -218,7 +218,9 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
             upper = finite_arg(lv.upper, f"{name}.upper")
             lower = finite_arg(lv.lower, f"{name}.lower")
             if axis not in self.axes:
-                if use and axis.value not in ignored:
+                # one mask bit for both elbows: a one-arm robot's missing left elbow is no news
+                lone_arm = axis.is_elbow and any(a.is_elbow for a in self.axes)
+                if use and not lone_arm and axis.value not in ignored:
                     ignored.append(axis.value)
                 continue
             allowed[axis] = use
