@@ -198,3 +198,9 @@ def test_security_token_rules_on_loopback():
     assert "require_tokens_locally" in problem
     both = _cfg(**{"security.require_tokens_locally": True, "security.tokens.motion": "m"})
     assert security_problems(both) == []
+
+
+def test_streams_cannot_take_every_gateway_thread():
+    with pytest.raises(ConfigError, match=r"monitor\.max_streams: 8 must be below workers \(8\)"):
+        load_config(None, None, ["workers=8"])
+    assert load_config(None, None, ["workers=8", "monitor.max_streams=7"]).workers == 8

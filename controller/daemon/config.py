@@ -234,4 +234,9 @@ def load_config(
         raise ConfigError("\n".join(lines)) from None
     if not math.isfinite(cfg.period):
         raise ConfigError(f"{where}: loop.rate_hz: must be finite")
+    if cfg.monitor.max_streams >= cfg.workers:
+        raise ConfigError(
+            f"{where}: monitor.max_streams: {cfg.monitor.max_streams} must be below workers "
+            f"({cfg.workers}): each stream holds a gateway thread, the other calls need one too"
+        )
     return cfg
