@@ -36,9 +36,9 @@ class LogfmtFormatter(logging.Formatter):
 
     def format(self, record: logging.LogRecord) -> str:
         parts = []
-        if self.journal:
-            parts.append(f"<{_PRIORITY.get(record.levelno, 6)}>")
-        else:
+        # journald takes "<N>" off the front; a space after it would stay in the message
+        prefix = f"<{_PRIORITY.get(record.levelno, 6)}>" if self.journal else ""
+        if not self.journal:
             t = time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(record.created))
             parts.append(f"ts={t}.{int(record.msecs):03d}")
         parts.append(f"level={record.levelname.lower()}")
@@ -47,7 +47,7 @@ class LogfmtFormatter(logging.Formatter):
         parts.append(f"msg={_quote(record.getMessage())}")
         if record.exc_info:
             parts.append(f"exc={_quote(self.formatException(record.exc_info))}")
-        return " ".join(parts)
+        return prefix + " ".join(parts)
 
 
 def setup_logging(level: str = "info", process: str = "imotiond") -> None:
