@@ -13,6 +13,7 @@ import logging
 import os
 import secrets
 import threading
+from multiprocessing import AuthenticationError
 from multiprocessing.connection import Client, Connection, Listener
 from pathlib import Path
 from typing import Any
@@ -99,6 +100,11 @@ class CommandClient:
                 self._conn = Client(self._address, family="AF_UNIX", authkey=self._key)
             except OSError as exc:
                 raise ChannelError(f"control process not reachable: {exc}") from None
+            except AuthenticationError:
+                raise ChannelError(
+                    f"control process not reachable: {self._address} did not accept our key "
+                    "(another daemon's runtime directory?)"
+                ) from None
         return self._conn
 
     def call(self, name: str, **args: Any) -> tuple[bool, Any, str]:
