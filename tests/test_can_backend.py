@@ -6,6 +6,8 @@ Every test runs the CAN backend against the drive emulator in one process over p
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import pytest
 
@@ -16,7 +18,7 @@ from controller.motion.motions import JointMotion
 from hal.can import pdo
 from hal.can.cia402 import CW_ENABLE_OPERATION
 from hal.can.supervision import DriveError
-from hal.interface import HardwareState
+from hal.interface import HardwareState, JointCommand, JointState
 from tests.can_support import Hil
 
 #: Controlword bits that command torque with motion (enable operation = bits 0-3 set).
@@ -136,6 +138,72 @@ def test_non_finite_set_point_faults(hil: Hil):
     hil.cycle(command)
     assert hil.backend.state is HardwareState.FAULT
     assert hil.backend.faults()[0].code == AlarmCode.HARDWARE_INVALID_COMMAND
+
+
+# ------------------------------------------------------------------------------- lockstep
+class Partner:
+    """A lockstep partner on the harness: the emulator handles frames only when asked."""
+
+    def __init__(self, hil: Hil):
+        self.hil = hil
+        self.answer = True
+        self.timeouts: list[float] = []
+
+    def wait_answered(self, sent: Mapping[str, int], timeout: float) -> bool:
+        self.timeouts.append(timeout)
+        if not self.answer:
+            return False
+        self.hil.emulator.poll()
+        return self.hil.emulator.wait_answered(sent, 0.0)
+
+
+def bare_cycle(hil: Hil, command: np.ndarray | None = None) -> JointState:
+    """read + write, time passes, but the emulator runs only inside the lockstep wait."""
+    state = hil.backend.read()
+    hil.backend.write(JointCommand(state.position if command is None else command))
+    hil.clock.t += hil.dt
+    return state
+
+
+def test_lockstep_read_gets_the_feedback_of_the_cycle_it_sent(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    hil.backend.activate()
+    partner = Partner(hil)
+    hil.backend.lockstep = partner
+    target = hil.backend.read().position.copy()
+    j = hil.backend.joint_names.index("r_arm_j2")
+    for _ in range(100):
+        target[j] += 0.002
+        bare_cycle(hil, target)
+        hil.backend.read()  # the next cycle's read: every SYNC sent is answered
+        assert hil.emulator.sync_counts() == hil.backend.syncs_sent
+    state = bare_cycle(hil, target)
+    assert hil.backend.state is HardwareState.ACTIVE and not hil.backend.faults()
+    assert state.position[j] == pytest.approx(target[j], abs=0.01)
+    assert set(partner.timeouts) == {hil.backend.lockstep_timeout}
+    hil.backend.lockstep = None  # without the partner nothing answers: TPDO timeout
+    for _ in range(4):
+        bare_cycle(hil, target)
+    assert {f.code for f in hil.backend.faults()} == {AlarmCode.TPDO_TIMEOUT}
+
+
+def test_a_stalled_lockstep_partner_costs_cycles_not_seconds(hil: Hil):
+    hil.configure()
+    hil.cycle()
+    partner = Partner(hil)
+    partner.answer = False
+    hil.backend.lockstep = partner
+    for _ in range(4):
+        bare_cycle(hil)
+    dt, full = hil.dt, hil.backend.lockstep_timeout
+    assert partner.timeouts == [full, 2 * dt, 2 * dt, 2 * dt]
+    assert hil.backend.lockstep_timeouts == 4
+    assert {f.code for f in hil.backend.faults()} == {AlarmCode.TPDO_TIMEOUT}
+    partner.answer = True  # the emulator runs again: full waits from then on
+    bare_cycle(hil)
+    bare_cycle(hil)
+    assert partner.timeouts[-2:] == [2 * dt, full] and not hil.backend.lockstep_stalled
 
 
 # ----------------------------------------------------------------- injected faults, full core

@@ -32,6 +32,7 @@ def test_can_backend_with_bus_overrides():
         ({"feedback_wait": -1}, "feedback_wait"),
         ({"buses": {"ghost": {}}}, "unknown bus 'ghost'"),
         ({"buses": 3}, "hal.options.buses"),
+        ({"lockstep_timeout": 1.0}, "only for hal 'hil'"),
     ],
 )
 def test_bad_options(options: dict, message: str):
@@ -68,6 +69,9 @@ def test_hil_runs_the_emulator_in_process():
             hw.write(type("C", (), {"position": state.position})())  # type: ignore[arg-type]
         hw.activate()
         assert hw.state is HardwareState.ACTIVE
+        assert hw.lockstep is hw.emulator
+        assert hw.emulator.sync_counts() == hw.syncs_sent  # every SYNC answered by read()
+        assert hw.lockstep_timeouts == 0
     finally:
         hw.shutdown()
     assert hw.state is HardwareState.FINALIZED

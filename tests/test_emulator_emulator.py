@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import can
 import numpy as np
 import pytest
 
@@ -157,3 +158,66 @@ def test_construction_errors_name_the_problem(pa10, tmp_path):
     emulator.close()
     with DriveEmulator(pa10) as emulator, pytest.raises(ValueError, match="unknown bus"):
         emulator.open_master_bus("can9")
+
+
+def test_wait_answered_closes_the_cycle_of_a_master_round(pa10):
+    clock = FakeClock()
+    with DriveEmulator(pa10, clock=clock) as emulator:
+        emulator.open()
+        a, b = FrameMaster(emulator, "arm_a", clock), FrameMaster(emulator, "arm_b", clock)
+        a.nmt(0x01)
+        b.send(0x000, [0x01, 0])  # arm_b starts in the same round, after arm_a's SYNC
+        a.send(0x080)
+        b.send(0x080)
+        emulator.poll()  # arm_a's SYNC closes a cycle alone; arm_b's opens the next one
+        assert emulator.cycles == 1
+        assert emulator.sync_counts() == {"arm_a": 1, "arm_b": 1}
+        assert tpdo1(b.frames(), 5) is None
+        assert not emulator.wait_answered({"arm_a": 2}, 0.0)
+        assert emulator.wait_answered({"arm_a": 1, "arm_b": 1}, 0.0)  # closes it
+        assert emulator.cycles == 2
+        assert tpdo1(b.frames(), 5) is not None
+        a.frames()
+        for _ in range(3):  # in phase from now on: one cycle per round, both buses answered
+            a.send(0x080)
+            b.send(0x080)
+            emulator.poll()
+            assert tpdo1(a.frames(), 1) is not None and tpdo1(b.frames(), 5) is not None
+        assert emulator.cycles == 5
+        b.nmt(0x80)  # pre-operational: its SYNCs are handled but open no cycle
+        b.send(0x080)
+        emulator.poll()
+        assert emulator.cycles == 5 and emulator.sync_counts()["arm_b"] == 5
+        emulator.inject("bus_off", bus="arm_a")
+        emulator.process("arm_a", can.Message(arbitration_id=0x080, is_extended_id=False))
+        assert emulator.sync_counts()["arm_a"] == 5  # ignored while bus-off, but handled
+        a.close()
+        b.close()
+
+
+def test_threads_answer_a_sync_with_its_tpdos_already_on_the_bus(pa10):
+    with DriveEmulator(pa10) as emulator:
+        emulator.start()
+        buses = {name: emulator.open_master_bus(name) for name in emulator.channels}
+        nodes = {
+            name: {c.node_id for c in emulator.profile.drives.values() if c.bus == name}
+            for name in buses
+        }
+        sent = dict.fromkeys(buses, 0)
+        for bus in buses.values():
+            bus.send(can.Message(arbitration_id=0x000, data=[0x01, 0], is_extended_id=False))
+        for _ in range(20):
+            for name, bus in buses.items():
+                bus.send(can.Message(arbitration_id=0x080, is_extended_id=False))
+                sent[name] += 1
+            assert emulator.wait_answered(sent, 5.0)
+            for name, bus in buses.items():
+                frames = iter(lambda b=bus: b.recv(0.0), None)
+                tpdo = {
+                    m.arbitration_id - 0x180 for m in frames if m.arbitration_id & 0x780 == 0x180
+                }
+                assert tpdo == nodes[name]
+        assert emulator.sync_counts() == sent
+        assert emulator.cycles in (20, 21)  # 21: a bus's NMT start came after another's SYNC
+        for bus in buses.values():
+            bus.shutdown()

@@ -25,12 +25,21 @@ Lifecycle (see :mod:`hal.interface`):
   heartbeat and stay quick-stopped (0x6007).
 
 Cycle: ``read()`` drains every bus without blocking (``bus.recv(0)``; optionally waits up to
-``feedback_wait`` [s] for the TPDO1 of every drive, for lock-step simulation) and decodes
-TPDO1/TPDO2, heartbeats and EMCY with precompiled structs; ``write()`` sends every drive's
+``feedback_wait`` [s] for the TPDO1 of every drive) and decodes TPDO1/TPDO2, heartbeats and
+EMCY with precompiled structs; ``write()`` sends every drive's
 RPDO1, then one SYNC per bus, and the master heartbeat when due. Feedback is one cycle old:
 what ``read()`` returns was sampled by the drives at the previous cycle's SYNC; its ``stamp``
 is that SYNC's time, and the following-error check compares it with the set-point sent
 *before* that SYNC.
+
+Lockstep (``--hal hil``): with a ``lockstep`` partner (the in-process drive emulator) the
+backend counts the SYNCs it sends per bus and ``read()`` first waits until the partner has
+answered all of them (:meth:`Lockstep.wait_answered`): the feedback is exactly that of the
+cycle just commanded, however late the emulator's threads run on a busy host (a late cycle
+is an overrun, never a missing TPDO). The wait is bounded by ``lockstep_timeout`` [s]; after
+a timeout (a stopped emulator) it waits at most two periods until the partner answers again,
+and the TPDO timeout counts the cycles as usual. Real buses (``--hal can``) have no partner:
+supervision there stays on the wire's timing.
 
 Vehicle: x/y/θ are virtual joints on wheel drives (:mod:`hal.can.vehicle`) unless the profile
 gives them as drives.
@@ -49,10 +58,10 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import can
 import numpy as np
@@ -102,6 +111,15 @@ class Port:
     failed: bool = False
 
 
+class Lockstep(Protocol):
+    """A simulated bus partner that answers SYNCs in the same process (the drive emulator)."""
+
+    def wait_answered(self, sent: Mapping[str, int], timeout: float) -> bool:
+        """Wait up to ``timeout`` [s] until each bus of ``sent`` has answered that many SYNC
+        frames (their TPDOs are on the bus, no cycle left open); False on timeout."""
+        ...
+
+
 def interpolation_period(dt: float) -> tuple[int, int]:
     """0x60C2 (value u8, index i8) with value·10^index = ``dt`` [s]."""
     for index in (-3, -4, -5, -6):
@@ -131,6 +149,8 @@ class CanBackend(HardwareInterface):
         enable_timeout: float = 0.5,
         reset_timeout: float = 0.5,
         sdo_timeout: float = 0.3,
+        lockstep: Lockstep | None = None,
+        lockstep_timeout: float = 1.0,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         bus_factory: Callable[[str, dict[str, Any]], can.BusABC] | None = None,
@@ -146,6 +166,12 @@ class CanBackend(HardwareInterface):
         self.enable_timeout = enable_timeout
         self.reset_timeout = reset_timeout
         self.sdo_timeout = sdo_timeout
+        self.lockstep = lockstep
+        self.lockstep_timeout = lockstep_timeout
+        #: The last lockstep wait timed out: wait at most two periods until it answers again.
+        self.lockstep_stalled = False
+        #: Lockstep waits that timed out since configure.
+        self.lockstep_timeouts = 0
         self._clock = clock
         self._sleep = sleep
         self._bus_factory = bus_factory or (lambda _name, kwargs: open_bus(kwargs))
@@ -242,6 +268,8 @@ class CanBackend(HardwareInterface):
         #: Frames sent and received per bus since configure, and their worst-case length
         #: [bit] (classic CAN, bit stuffing; :mod:`hal.can.busload`), for benchmarks.
         self.frames_sent = dict.fromkeys(profile.buses, 0)
+        #: SYNC frames sent per bus since configure (the lockstep count).
+        self.syncs_sent = dict.fromkeys(profile.buses, 0)
         self.frames_received = dict.fromkeys(profile.buses, 0)
         self.bits = dict.fromkeys(profile.buses, 0)
 
@@ -515,7 +543,8 @@ class CanBackend(HardwareInterface):
                 pdo.RPDO1_STRUCT.pack_into(msg.data, 0, cw, self._target_counts[i])
                 if not self._send(port, msg):
                     break
-            self._send(port, port.sync)
+            if self._send(port, port.sync):
+                self.syncs_sent[port.name] += 1
         now = self._clock()
         self._sync_stamp = now
         self._pending = True
@@ -554,6 +583,8 @@ class CanBackend(HardwareInterface):
         """Decode every frame waiting on the buses, update the state, run supervision."""
         self._fresh[:] = False
         now = self._clock()
+        if self.lockstep is not None:
+            self._wait_lockstep()
         for port in self._ports:
             self._drain_port(port, now)
         if self.feedback_wait > 0 and not self._fresh.all():
@@ -566,6 +597,18 @@ class CanBackend(HardwareInterface):
                 self._drain_port(port, now)
         self._pending = False
         self._update(now)
+
+    def _wait_lockstep(self) -> None:
+        """Until the lockstep partner answered every SYNC sent (bounded, see the module doc)."""
+        assert self.lockstep is not None
+        timeout = 2 * self.dt if self.lockstep_stalled else self.lockstep_timeout
+        if self.lockstep.wait_answered(self.syncs_sent, timeout):
+            self.lockstep_stalled = False
+            return
+        if not self.lockstep_stalled:
+            log.warning("lockstep: SYNCs unanswered after %.3f s", timeout)
+        self.lockstep_stalled = True
+        self.lockstep_timeouts += 1
 
     def _drain_port(self, port: Port, now: float) -> None:
         while self._receive_one(port, 0.0):

@@ -3,21 +3,24 @@
 * ``can``: :class:`~hal.can.backend.CanBackend` on the buses of the robot's ``drives.yaml``.
 * ``hil``: the same backend on private python-can ``virtual`` buses, talking to the
   in-process drive emulator (:class:`hal.emulator.emulator.DriveEmulator`, its threads
-  running, in lockstep with the SYNCs); the emulator stops when the backend shuts down.
+  running) in deterministic lockstep: every ``read()`` waits until the emulator has answered
+  the SYNCs of the cycle just sent (``lockstep_timeout``); the emulator stops when the
+  backend shuts down.
 
 Options (``hal.options`` of the daemon configuration):
 
-==================  =========================================================================
-``buses``           per bus, python-can settings overriding the profile, e.g.
-                    ``{"arm_r": {"interface": "remote", "channel": "ws://127.0.0.1:54701/"}}``
-                    (``can`` only)
-``drives``          path of another drive profile (default ``config/robots/<id>/drives.yaml``)
-``feedback_wait``   [s] how long ``read()`` may wait for missing TPDOs (default 0 for ``can``,
-                    max(10 periods, 20 ms) for ``hil``)
-``enable_timeout``  [s] bound of ``activate()`` (default 0.5)
-``reset_timeout``   [s] bound of ``reset_faults()`` (default 0.5)
-``sdo_timeout``     [s] per SDO request at set-up (default 0.3)
-==================  =========================================================================
+====================  =======================================================================
+``buses``             per bus, python-can settings overriding the profile, e.g.
+                      ``{"arm_r": {"interface": "remote", "channel": "ws://127.0.0.1:54701/"}}``
+                      (``can`` only)
+``drives``            path of another drive profile (default ``config/robots/<id>/drives.yaml``)
+``feedback_wait``     [s] how long ``read()`` may wait for missing TPDOs (default 0)
+``lockstep_timeout``  [s] ``hil`` only: longest wait for the emulator to answer a cycle's
+                      SYNCs before the cycle counts as missing its TPDOs (default 1.0)
+``enable_timeout``    [s] bound of ``activate()`` (default 0.5)
+``reset_timeout``     [s] bound of ``reset_faults()`` (default 0.5)
+``sdo_timeout``       [s] per SDO request at set-up (default 0.3)
+====================  =======================================================================
 
 The profile's worst-case bus load at the loop rate (:mod:`hal.can.busload`) is checked
 first: over 100 % raises ValueError with the load table, over 70 % logs a warning.
@@ -36,10 +39,16 @@ from hal.can.drive_profile import drives_path, load_drive_profile
 
 log = logging.getLogger(__name__)
 
-#: Least time [s] ``read()`` waits for the emulator's TPDOs in ``hil``.
-HIL_FEEDBACK_WAIT = 0.02
-OPTIONS = ("buses", "drives", "feedback_wait", "enable_timeout", "reset_timeout", "sdo_timeout")
-_SECONDS = ("feedback_wait", "enable_timeout", "reset_timeout", "sdo_timeout")
+OPTIONS = (
+    "buses",
+    "drives",
+    "feedback_wait",
+    "enable_timeout",
+    "reset_timeout",
+    "sdo_timeout",
+    "lockstep_timeout",
+)
+_SECONDS = OPTIONS[2:]
 
 
 def make_can_backend(
@@ -66,6 +75,8 @@ def make_can_backend(
     if not isinstance(buses, dict) or not all(isinstance(v, dict) for v in buses.values()):
         raise ValueError(f"hal.options.buses: a mapping bus -> python-can settings, got {buses!r}")
     if kind == "can":
+        if "lockstep_timeout" in timing:
+            raise ValueError("hal.options.lockstep_timeout: only for hal 'hil' (no emulator)")
         return CanBackend(robot, dt, profile, path.parent, buses, **timing)
     if kind != "hil":
         raise ValueError(f"make_can_backend: kind must be 'can' or 'hil', got {kind!r}")
@@ -75,16 +86,16 @@ def make_can_backend(
 
     emulator = DriveEmulator(robot, profile, period=dt)
     emulator.start()
-    # Lock-step: the emulator is the plant; on a busy host its thread may answer late, and
-    # waiting for it (an overrun) is right where real drives would be on time.
-    timing.setdefault("feedback_wait", max(10 * dt, HIL_FEEDBACK_WAIT))
     try:
+        # Lockstep: the emulator is the plant. On a busy host its threads may answer late;
+        # waiting for them (an overrun) is right where real drives would be on time.
         backend = CanBackend(
             robot,
             dt,
             profile,
             path.parent,
             bus_factory=lambda name, _kwargs: emulator.open_master_bus(name),
+            lockstep=emulator,
             **timing,
         )
     except BaseException:

@@ -14,6 +14,15 @@ their next SYNC. So a master that sends RPDOs on every bus and then one SYNC per
 on each bus, TPDOs that describe the state at the end of the period it just commanded; a
 master that only uses some of the buses is not slowed by the others.
 
+**Master rounds (in process).** Per bus the emulator counts the SYNC frames (COB-ID 0x080 or
+a drive's 0x1005) it has handled, ignored ones included (bus-off, nobody listening). A
+master in the same process (``--hal hil``) counts the SYNCs it sent and calls
+:meth:`DriveEmulator.wait_answered`: once every one of them is handled, a cycle still open
+is closed there (it waits for a bus whose SYNC of this round went into the previous cycle,
+e.g. because that bus's drives became OPERATIONAL in between), so every SYNC of the round is
+answered and the barrier can never slip a cycle. The master gets the feedback of exactly
+the cycle it commanded, however late the threads run.
+
 **Buses.** ``channels`` maps a profile bus name to python-can ``(interface, channel)``;
 by default each bus is a ``virtual`` channel private to this emulator (``hil-<n>-<bus>``),
 and :meth:`DriveEmulator.open_master_bus` opens the master's end of it (wrapped for bus-off
@@ -55,6 +64,8 @@ from hal.emulator.plant import Plant
 log = logging.getLogger(__name__)
 
 Handler = Callable[[bytes, float], None]
+#: The SYNC COB-ID of the predefined connection set (a drive's 0x1005 may name another).
+SYNC_COB_ID = 0x080
 _instances = itertools.count(1)
 
 
@@ -80,6 +91,8 @@ class _Port:
         #: False once a cycle had to close without this bus's SYNC (its master is gone).
         self.alive = True
         self.send_errors = 0
+        #: SYNC frames handled on this bus (latched, or ignored: bus-off, nobody listens).
+        self.syncs = 0
 
     def send(self, can_id: int, data: bytes) -> None:
         bus = self.bus
@@ -129,6 +142,8 @@ class DriveEmulator:
             raise ValueError(f"period must be positive, got {period!r}")
         self._clock = clock
         self._lock = threading.RLock()
+        #: Notified whenever a SYNC frame was handled (:meth:`wait_answered`).
+        self._handled = threading.Condition(self._lock)
         instance = next(_instances)
         overrides = dict(channels or {})
         unknown = set(overrides) - set(self.profile.buses)
@@ -186,6 +201,26 @@ class DriveEmulator:
     @property
     def sim_time(self) -> float:
         return self.plant.sim_time
+
+    def sync_counts(self) -> dict[str, int]:
+        """Per bus, the SYNC frames handled so far (module doc)."""
+        with self._lock:
+            return {n: p.syncs for n, p in self._ports.items()}
+
+    def wait_answered(self, sent: Mapping[str, int], timeout: float) -> bool:
+        """Wait up to ``timeout`` [s] until every bus of ``sent`` has handled that many SYNC
+        frames, then close the cycle they opened if it is still open: on True every one of
+        them is answered (its TPDOs are on the bus). False on timeout (threads stalled or
+        stopped)."""
+        ports = [(self._ports[name], count) for name, count in sent.items()]
+        with self._handled:
+            if not self._handled.wait_for(
+                lambda: all(port.syncs >= count for port, count in ports), timeout
+            ):
+                return False
+            if any(p.synced for p in self._ports.values()):
+                self._complete_cycle()
+            return True
 
     def drive_on(self, bus: str, node_id: int) -> EmulatedDrive:
         for drive in self._ports[bus].drives:
@@ -327,16 +362,24 @@ class DriveEmulator:
     # -------------------------------------------------------------------------- internals
 
     def _process(self, port: _Port, msg: can.Message) -> None:
-        if port.bus_off or msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id:
+        if msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id:
             return
         if port.dirty:
             port.rebuild()
         can_id = msg.arbitration_id
         group = port.sync_groups.get(can_id)
+        is_sync = group is not None or can_id == SYNC_COB_ID
+        if port.bus_off or (is_sync and (group is None or not self._operational(port))):
+            if is_sync:  # ignored: handled, nothing will come of it
+                port.syncs += 1
+                self._handled.notify_all()
+            return
         if group is not None:
             self._sync(port, group)
+            port.syncs += 1
             if all(p.synced for p in self._ports.values() if self._expects(p)):
                 self._complete_cycle()
+            self._handled.notify_all()
             return
         handlers = port.routes.get(can_id)
         if handlers:
@@ -392,14 +435,15 @@ class DriveEmulator:
             self.cycle_times.append(time.perf_counter() - start)
 
     @staticmethod
-    def _expects(port: _Port) -> bool:
+    def _operational(port: _Port) -> bool:
+        """One of the bus's drives is OPERATIONAL (only those answer a SYNC)."""
+        return any(d.nmt_state == NMT_OPERATIONAL for d in port.drives)
+
+    @classmethod
+    def _expects(cls, port: _Port) -> bool:
         """Whether a cycle waits for this bus's SYNC: it is up, its master alive, and one of
-        its drives OPERATIONAL (only those answer a SYNC)."""
-        return (
-            port.alive
-            and not port.bus_off
-            and any(d.nmt_state == NMT_OPERATIONAL for d in port.drives)
-        )
+        its drives OPERATIONAL. A SYNC on a bus without one opens no cycle."""
+        return port.alive and not port.bus_off and cls._operational(port)
 
     def _tick(self, now: float) -> None:
         for drive in self._order:
