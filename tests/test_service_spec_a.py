@@ -1139,3 +1139,41 @@ def test_every_integrated_motion_rpc_is_covered():
     missing = sorted(n for n in names if f".{n}(" not in source and f'"{n}"' not in source)
     assert not missing
     assert RightLeft.RIGHT == RIGHT
+
+
+def test_linear_move_on_the_line_with_simulated_drives():
+    """MuJoCo drives (tracking error, dynamics): the line holds to well under a millimetre."""
+    d = TestDaemon("pa10", "sim", 250.0)
+    try:
+        ok(d.spec_a.ServoOn(pb.ServoOnRequest()))
+        wait_state(d, S.READY)
+        delta = np.array([-80.0, 40.0, -60.0])
+        seen = _watch_linear_move(d, delta, accel=300.0)
+        assert seen["travelled"].max() > 0.99 * np.linalg.norm(delta)
+        assert seen["deviation"].max() < 1.0, f"max deviation {seen['deviation'].max():.3f} mm"
+    finally:
+        d.close()
+
+
+def test_two_clients_racing_for_one_robot(d: TestDaemon):
+    """Spec A never queues: of two moves sent at the same moment exactly one starts."""
+    replies: list[int] = []
+    barrier = threading.Barrier(2)
+
+    def client(angle: float) -> None:
+        channel = grpc.insecure_channel(d.address)
+        stub = d.spec_a.__class__(channel)
+        request = pb.MoveUnitRelRequest(
+            unit=pb.RIGHT_ARM, rel_pos=[angle, 0, 0, 0, 0, 0, 0], speed=[20], accel=[100]
+        )
+        barrier.wait(10.0)
+        replies.append(code(stub.MoveUnitRel(request)))
+        channel.close()
+
+    threads = [threading.Thread(target=client, args=(a,)) for a in (5.0, -5.0)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(30.0)
+    assert sorted(replies) == [Code.STATUS_ERR, Code.OK]
+    assert d.ctx.snapshot().started - d.ctx.snapshot().finished == 1
