@@ -165,7 +165,8 @@ def _supervise(daemon: Daemon) -> None:
         if status != last_status:
             systemd.notify(status)
             last_status = status
-        if not daemon.gateway_alive():
+        if not daemon.gateway_alive() and not ctl.shutdown_requested.is_set():
+            # (during a shutdown close() ends the gateway itself: not an error)
             _log.error("the gateway process exited: shutting down")
             daemon.exit_code = 1
             daemon.request_shutdown()
