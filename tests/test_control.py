@@ -17,7 +17,7 @@ import pytest
 from controller.alarms import AlarmCode
 from controller.core import CoreState
 from controller.daemon import snapshot as snap
-from controller.daemon.control import CartesianBox, Controller, Refused
+from controller.daemon.control import CartesianBox, Controller, Refused, Request
 from controller.daemon.motion_specs import JointMoveSpec
 from controller.enums import FrameType, RightLeft
 from controller.kinematics import Kinematics
@@ -144,20 +144,23 @@ def test_unknown_and_failing_commands_answer_ng(ctl: Controller):
 
 
 def test_an_answer_comes_after_the_snapshot_shows_it(ctl: Controller):
-    """A client that reads the snapshot right after an OK start sees the motion."""
+    """A client that reads the snapshot right after an OK start sees the motion: the answer
+    is given only once the cycle that ran the command has published."""
     ready(ctl)
-    seen: list[bool] = []
+    request = Request("start", {"spec": j1_move(ctl, 0.4)})
+    ctl.inbox.put(request)
+    answered_at_publish = []
+    publish = ctl.publish
 
-    def client() -> None:
-        request = ctl.submit("start", timeout=10.0, spec=j1_move(ctl, 0.4))
-        assert request.ok, request.message
-        seen.append(read(ctl).moving)
+    def spy() -> None:
+        publish()
+        answered_at_publish.append(request.done.is_set())
 
-    thread = threading.Thread(target=client)
-    thread.start()
-    while thread.is_alive():
-        step(ctl)
-    assert seen == [True]
+    ctl.publish = spy  # type: ignore[method-assign]
+    step(ctl)
+    assert request.ok and request.done.is_set()
+    assert answered_at_publish == [False]
+    assert read(ctl).moving
 
 
 def test_submit_times_out_without_a_loop(ctl: Controller):
