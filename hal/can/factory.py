@@ -7,7 +7,7 @@
   the SYNCs of the cycle just sent (``lockstep_timeout``); the emulator stops when the
   backend shuts down.
 
-Options (``hal.options`` of the daemon configuration):
+Options (``hal_options`` of the daemon configuration):
 
 ====================  =======================================================================
 ``buses``             per bus, python-can settings overriding the profile, e.g.
