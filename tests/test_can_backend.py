@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+import can
 import numpy as np
 import pytest
 
@@ -127,6 +128,30 @@ def test_second_read_without_write_is_the_same_state(hil: Hil):
     b = hil.backend.read()
     np.testing.assert_array_equal(a.position, b.position)
     assert a.stamp == b.stamp
+
+
+def test_a_pre_operational_heartbeat_is_stale_before_the_first_tpdo(hil: Hil):
+    """A drive's heartbeat sent during its set-up may arrive after it (a thread race with
+    the NMT start): not a fault. Once the drive answered a SYNC it is one (0x401)."""
+    heartbeat = can.Message(arbitration_id=pdo.HEARTBEAT + 33, data=[0x7F], is_extended_id=False)
+    send_cycle = hil.backend._send_cycle
+
+    def late_heartbeat_then_send_cycle(position: np.ndarray | None) -> None:
+        hil.sniffer.buses["body"].send(heartbeat)  # wheel_3, the last drive set up
+        hil.backend._send_cycle = send_cycle  # type: ignore[method-assign]
+        send_cycle(position)
+
+    hil.backend._send_cycle = late_heartbeat_then_send_cycle  # type: ignore[method-assign]
+    hil.configure()  # its first SYNC comes after the stale heartbeat
+    hil.cycle()
+    assert not hil.backend.faults()
+    hil.cycle()
+    assert not hil.backend.faults()
+    hil.sniffer.buses["body"].send(heartbeat)
+    hil.cycle()
+    assert [(f.code, f.source) for f in hil.backend.faults()] == [
+        (AlarmCode.HEARTBEAT_LOST, "wheel_3")
+    ]
 
 
 def test_non_finite_set_point_faults(hil: Hil):

@@ -647,7 +647,10 @@ class CanBackend(HardwareInterface):
         elif kind is pdo.Kind.HEARTBEAT:
             if len(data) >= 1:
                 self._supervisor.last_heartbeat[i] = self._clock()
-                fault = self._supervisor.nmt(i, data[0])
+                # A PRE-OPERATIONAL heartbeat before the drive's first TPDO1 is stale: sent
+                # during its set-up, before it handled the NMT start (not a fault).
+                stale = data[0] == pdo.NmtState.PRE_OPERATIONAL and not self._seen[i]
+                fault = None if stale else self._supervisor.nmt(i, data[0])
                 if fault is not None and self._state is not HardwareState.UNCONFIGURED:
                     self._enter_fault([fault])
         elif kind is pdo.Kind.EMCY and len(data) >= 3:
