@@ -642,6 +642,12 @@ SP5_CASES: list[Case] = [
         ),
         "rel_hg_mat",
     ),
+    (
+        "MovePTPCartesianRel",
+        lambda d: pb.MovePTPCartesianRelRequest(type=RIGHT, rel_hg_mat=UP, time=1e5),
+        "time",
+    ),
+    ("MoveUnitRel", lambda d: _vehicle(rel_pos=[1e300, 0, 0]), "vehicle move"),
     # grippers
     ("MoveGripper", lambda d: pb.MoveGripperRequest(type=RIGHT, angle_ratio=101), "angle_ratio"),
     ("MoveGripper", lambda d: pb.MoveGripperRequest(type=3, angle_ratio=50), "type"),
@@ -800,6 +806,7 @@ def test_pa10_right_is_the_arm_and_lumbar_vehicle_masks_are_ignored(pa10: TestDa
 
 
 # ----------------------------------------------------------------------------- reachability
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")  # the 1e300 mm one
 def test_unreachable_targets_fail_before_motion(d: TestDaemon):
     m, _ = pose(d)
     far = m.copy()
@@ -820,6 +827,12 @@ def test_unreachable_targets_fail_before_motion(d: TestDaemon):
         (
             "MovePTPCartesianRel",
             pb.MovePTPCartesianRelRequest(type=LEFT, rel_hg_mat=hg(p=(0, 0, 3000)), time=2.0),
+        ),
+        (  # finite but absurd: no time law covers it
+            "MoveLinearCartesianRel",
+            pb.MoveLinearCartesianRelRequest(
+                type=RIGHT, rel_hg_mat=hg(p=(1e300, 0, 0)), speed=CART_SPEED, accel=CART_ACCEL
+            ),
         ),
     ):
         reply = getattr(d.spec_a, name)(request)
@@ -987,6 +1000,26 @@ def test_cp_hold_keeps_the_control_point(d: TestDaemon):
     assert elbow_end == pytest.approx(elbow, abs=0.1)
     assert joints(d, pb.VEHICLE)[0] == pytest.approx(30.0, abs=0.1)
     np.testing.assert_allclose(end[:3, 3], start[:3, 3], atol=0.5)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="motion core: a CP-hold target the held hand cannot follow is accepted and the "
+    "motion ends short of it without an error (vehicle +600 mm stops near +210 mm)",
+)
+def test_cp_hold_target_the_hand_cannot_follow(d: TestDaemon):
+    """Either refused before motion (VALUE_ERR) or reached: never OK and silently short."""
+    request = _cp_rel(
+        rel_pos=pb.RedundantPos(vehicle_x=600.0),
+        speed=pb.RedundantSpeed(vehicle_translation=400, vehicle_rotation=20),
+        accel=pb.RedundantAccel(vehicle_translation=450, vehicle_rotation=60),
+    )
+    reply = d.spec_a.MoveCPHoldRel(request)
+    if code(reply) == Code.VALUE_ERR:
+        return
+    assert code(reply) == Code.OK, reply.return_id
+    assert d.wait_idle(20.0)
+    assert joints(d, pb.VEHICLE)[0] == pytest.approx(600.0, abs=1.0)
 
 
 def test_grippers_in_percent(d: TestDaemon):

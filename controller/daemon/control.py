@@ -347,10 +347,10 @@ class Controller:
                     "ready (this interface does not queue); wait, stop or resume first",
                 )
             self._check_plan(spec)
-            self._start(spec)
+            self._start_now(spec)
             return "started"
         if state == CoreState.READY and self.core.motion is None and not self.queue:
-            self._start(spec)
+            self._start_now(spec)
             return "started"
         if len(self.queue) >= self.queue_depth:
             raise Refused(
@@ -359,6 +359,12 @@ class Controller:
             )
         self.queue.append(spec)
         return "queued"
+
+    def _start_now(self, spec: MotionSpec) -> None:
+        try:
+            self._start(spec)
+        except ValueError as exc:  # e.g. a finite but absurd target no time law can cover
+            raise Refused("VALUE_ERR", f"{spec.label}: cannot be planned: {exc}") from None
 
     def _check_plan(self, spec: MotionSpec) -> None:
         if spec.planned_from is None:

@@ -40,6 +40,9 @@ from controller.service.codes import Code, Failure, SpecAState, spec_a_state
 
 Range = tuple[float, float]
 
+#: Longest movePTPCartesian time [s] (the time law fails on much longer ones).
+MAX_PTP_TIME = 3600.0
+
 _LUMBAR = {
     RedundantAxis.LUMBAR_RX: "lumbar_rx",
     RedundantAxis.LUMBAR_RY: "lumbar_ry",
@@ -493,18 +496,25 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
             with planner.view.at(snap, q0) as kin:
                 goal = relative_pose(kin.pose(side), goal, tool_frame=frame == 1)
         allowed, ranges = self._mask()
-        spec, _ = planner.cartesian(
-            snap,
-            q0,
-            side,
-            goal,
-            speed,
-            accel,
-            allowed,
-            ranges,
-            request.is_hold_other_arm,
-            label=f"{side.name} linear move",
-        )
+        try:
+            spec, _ = planner.cartesian(
+                snap,
+                q0,
+                side,
+                goal,
+                speed,
+                accel,
+                allowed,
+                ranges,
+                request.is_hold_other_arm,
+                label=f"{side.name} linear move",
+            )
+        except ArgumentError:
+            raise
+        except ValueError as exc:  # a finite but absurd target no time law can cover
+            raise Failure(
+                Code.CANNOT_REACH_TARGET_ERR, f"{target_field}: no path to it: {exc}"
+            ) from None
         self.ctx.call("start", sv_on_code=False, spec=spec)
 
     @rpc(pb.MoveLinearCartesianAbsResponse)
@@ -519,6 +529,8 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         side = side_arg(self.view, request.type)
         goal = hg_arg(getattr(request, target_field), target_field)
         duration = positive_arg(request.time, "time", "s")
+        if duration > MAX_PTP_TIME:
+            raise ArgumentError(f"time: {duration:g} s is longer than {MAX_PTP_TIME:g} s")
         snap = self.ctx.snapshot()
         require_ready(snap, sv_on_code=True)
         planner = self.ctx.planner
