@@ -707,6 +707,7 @@ def _check_rejected(d: TestDaemon, name: str, request: Any, fragment: str) -> No
 @pytest.mark.parametrize(
     "name, build, fragment", SP5_CASES, ids=[f"{c[0]}-{i}" for i, c in enumerate(SP5_CASES)]
 )
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")  # the 1e300 mm one
 def test_invalid_arguments_smartpal5(d: TestDaemon, name: str, build: Any, fragment: str):
     _check_rejected(d, name, build(d), fragment)
 
