@@ -17,6 +17,7 @@ from controller.core import CoreState, MotionCore
 from controller.enums import UnitType
 from controller.motion.motions import JointMotion
 from hal.can import pdo
+from hal.can.backend import Port
 from hal.can.cia402 import CW_ENABLE_OPERATION
 from hal.can.supervision import DriveError
 from hal.interface import HardwareState, JointCommand, JointState
@@ -211,6 +212,28 @@ def test_lockstep_read_gets_the_feedback_of_the_cycle_it_sent(hil: Hil):
     for _ in range(4):
         bare_cycle(hil, target)
     assert {f.code for f in hil.backend.faults()} == {AlarmCode.TPDO_TIMEOUT}
+
+
+def test_lockstep_sends_no_round_before_the_last_is_answered(hil: Hil):
+    """activate() and shutdown() right after a write() (servoOn between two cycles): each
+    SYNC goes out only once the emulator has handled every earlier one on its bus."""
+    hil.configure()
+    hil.cycle()
+    hil.backend.lockstep = Partner(hil)
+    backend, emulator = hil.backend, hil.emulator
+    send, checked = backend._send, []
+
+    def checked_send(port: Port, msg: can.Message) -> bool:
+        if msg.arbitration_id == pdo.SYNC:
+            checked.append(emulator.sync_counts()[port.name] == backend.syncs_sent[port.name])
+        return send(port, msg)
+
+    backend._send = checked_send  # type: ignore[method-assign]
+    bare_cycle(hil)
+    backend.activate()
+    bare_cycle(hil)
+    backend.shutdown()
+    assert len(checked) > 3 * len(hil.profile.buses) and all(checked)
 
 
 def test_a_stalled_lockstep_partner_costs_cycles_not_seconds(hil: Hil):

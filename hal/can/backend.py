@@ -521,7 +521,12 @@ class CanBackend(HardwareInterface):
         return True
 
     def _send_cycle(self, position: np.ndarray | None) -> None:
-        """RPDO1 per drive, SYNC per bus, heartbeat when due. ``position``: None = hold."""
+        """RPDO1 per drive, SYNC per bus, heartbeat when due. ``position``: None = hold.
+
+        In lockstep a round never goes out before the last one is answered (activate(),
+        reset_faults() and shutdown() may follow a write() without a read())."""
+        if self._pending and self.lockstep is not None:
+            self._wait_lockstep()
         if position is not None and self._state is HardwareState.ACTIVE:
             target = self._target
             target[self._joint_drive] = position[self._joint_idx]
