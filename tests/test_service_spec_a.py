@@ -1003,24 +1003,20 @@ def test_cp_hold_keeps_the_control_point(d: TestDaemon):
     np.testing.assert_allclose(end[:3, 3], start[:3, 3], atol=0.5)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="motion core: a CP-hold target the held hand cannot follow is accepted and the "
-    "motion ends short of it without an error (vehicle +600 mm stops near +210 mm)",
-)
 def test_cp_hold_target_the_hand_cannot_follow(d: TestDaemon):
-    """Either refused before motion (VALUE_ERR) or reached: never OK and silently short."""
+    """Refused before motion (the planner's dry run sees the hand cannot follow): never OK
+    and silently short."""
     request = _cp_rel(
         rel_pos=pb.RedundantPos(vehicle_x=600.0),
         speed=pb.RedundantSpeed(vehicle_translation=400, vehicle_rotation=20),
         accel=pb.RedundantAccel(vehicle_translation=450, vehicle_rotation=60),
     )
+    before = joints(d, pb.VEHICLE)
     reply = d.spec_a.MoveCPHoldRel(request)
-    if code(reply) == Code.VALUE_ERR:
-        return
-    assert code(reply) == Code.OK, reply.return_id
-    assert d.wait_idle(20.0)
-    assert joints(d, pb.VEHICLE)[0] == pytest.approx(600.0, abs=1.0)
+    assert code(reply) == Code.CANNOT_REACH_TARGET_ERR, reply.return_id
+    assert "vehicleX" in reply.return_id.comment and "short" in reply.return_id.comment
+    assert not moving(d)
+    np.testing.assert_allclose(joints(d, pb.VEHICLE), before, atol=1e-9)
 
 
 def test_grippers_in_percent(d: TestDaemon):

@@ -21,12 +21,16 @@ from controller.daemon.motion_specs import (
     CartesianMoveSpec,
     CPHoldSpec,
     JointMoveSpec,
+    MotionSpec,
     VehicleMoveSpec,
 )
 from controller.daemon.snapshot import Snapshot
 from controller.enums import RightLeft
+from controller.kinematics import Kinematics
 from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
+from controller.qp.ik import WholeBodyIK
+from controller.qp.tasks import AxisTask, ControlPointTask, Task
 from controller.redundant_axes import RedundantAxis
 from controller.service.codes import Code, Failure
 from controller.service.robot_view import RobotView
@@ -41,6 +45,7 @@ class Planner:
         self.checker = ReachabilityChecker(view.kin)
         self.lock = threading.RLock()
         self.tail: np.ndarray | None = None
+        self._dry_ik: WholeBodyIK | None = None
         self.tail_poses: dict[RightLeft, pin.SE3] = {}
 
     # ------------------------------------------------------------------ base state
@@ -214,6 +219,38 @@ class Planner:
             label=label,
         )
 
+    def dry_run(
+        self, snap: Snapshot, q0: np.ndarray, spec: MotionSpec, max_time: float = 600.0
+    ) -> str | None:
+        """Run ``spec`` on the planning copy with perfect drives at a coarse step
+        (:data:`DRY_RUN_DT`), with the daemon's own IK: None when it arrives (axis targets
+        reached, held control points kept), else why not. For motions whose reachability
+        the path check cannot see (CP-hold: the body moves under a held hand)."""
+        with self.lock, self.view.at(snap, q0) as kin:
+            if self._dry_ik is None:
+                self._dry_ik = WholeBodyIK(kin, DRY_RUN_DT)
+            ik = self._dry_ik
+            ik.box.q_min, ik.box.q_max = self.checker.q_min.copy(), self.checker.q_max.copy()
+            motion = spec.build(kin, DRY_RUN_DT)
+            setup = motion.setup()
+            ik.tasks = setup.tasks
+            ik.configure(setup.frozen, setup.allowed, setup.ranges)
+            q, v = q0.copy(), np.zeros_like(q0)
+            settle = 0
+            for _ in range(int(max_time / DRY_RUN_DT)):
+                motion.advance()
+                result = ik.solve(q, v)
+                if not result.ok:
+                    return f"no joint motion can follow it: {result.message}"
+                v = result.velocity
+                q = q + v * DRY_RUN_DT
+                kin.update(q)
+                if motion.finished:
+                    settle += 1
+                    if settle * DRY_RUN_DT >= 1.0 or np.abs(v).max() < 1e-6:
+                        break
+            return _arrival_problem(kin, ik.tasks)
+
     def cp_hold(
         self,
         q0: np.ndarray,
@@ -246,6 +283,34 @@ class Planner:
             planned_from=q0.copy(),
             label="vehicle move",
         )
+
+
+#: Step of :meth:`Planner.dry_run` [s].
+DRY_RUN_DT = 0.02
+#: Arrival tolerances of a dry run: axis [m or rad], held control point [m].
+AXIS_TOL = (0.005, math.radians(0.5))
+HOLD_TOL = 0.002
+
+
+def _arrival_problem(kin: Kinematics, tasks: list[Task]) -> str | None:
+    for task in tasks:
+        if isinstance(task, AxisTask):
+            err = abs(task.error(kin))
+            linear = task.axis in (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y)
+            if err > (AXIS_TOL[0] if linear else AXIS_TOL[1]):
+                shown = f"{1e3 * err:.0f} mm" if linear else f"{math.degrees(err):.1f} deg"
+                return (
+                    f"in a dry run {task.axis.value} stopped {shown} short of its target: the held "
+                    "control point(s) cannot follow that far (arm reach or joint limits)"
+                )
+        elif isinstance(task, ControlPointTask):
+            err = float(np.linalg.norm(task.error(kin)[:3]))
+            if err > HOLD_TOL:
+                return (
+                    f"in a dry run the {task.side.name} control point moved {1e3 * err:.1f} mm while "
+                    "held: the arm cannot keep it there (reach or joint limits)"
+                )
+    return None
 
 
 def min_duration(distance: np.ndarray, v_max: np.ndarray, a_max: np.ndarray) -> float:

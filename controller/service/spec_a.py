@@ -460,6 +460,9 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         spec = planner.cp_hold(
             q0, held, targets, np.array(speeds), np.array(accels), label="CP-hold move"
         )
+        reason = planner.dry_run(snap, q0, spec)
+        if reason is not None:
+            raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
         self.ctx.call("start", sv_on_code=False, spec=spec)
 
     @rpc(pb.MoveCPHoldAbsResponse)
