@@ -300,15 +300,15 @@ def _arrival_problem(kin: Kinematics, tasks: list[Task]) -> str | None:
             if err > (AXIS_TOL[0] if linear else AXIS_TOL[1]):
                 shown = f"{1e3 * err:.0f} mm" if linear else f"{math.degrees(err):.1f} deg"
                 return (
-                    f"in a dry run {task.axis.value} stopped {shown} short of its target: the held "
-                    "control point(s) cannot follow that far (arm reach or joint limits)"
+                    f"in a dry run {task.axis.value} stopped {shown} short of its target: the "
+                    "held control point(s) cannot follow that far (arm reach or joint limits)"
                 )
         elif isinstance(task, ControlPointTask):
             err = float(np.linalg.norm(task.error(kin)[:3]))
             if err > HOLD_TOL:
                 return (
-                    f"in a dry run the {task.side.name} control point moved {1e3 * err:.1f} mm while "
-                    "held: the arm cannot keep it there (reach or joint limits)"
+                    f"in a dry run the {task.side.name} control point moved {1e3 * err:.1f} mm "
+                    "while held: the arm cannot keep it there (reach or joint limits)"
                 )
     return None
 
