@@ -28,6 +28,7 @@ from controller.robot import load_robot
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.service.auth import TokenInterceptor
 from controller.service.base import Context
+from controller.service.jara import add_jara_servicers
 from controller.service.monitor import MonitorServicer
 from controller.service.planner import Planner
 from controller.service.robot_view import RobotView
@@ -51,10 +52,6 @@ def build_context(cfg: DaemonConfig, runtime_dir: Path) -> Context:
 def add_servicers(server: grpc.Server, ctx: Context) -> None:
     pb_grpc.add_IntegratedMotionServicer_to_server(IntegratedMotionServicer(ctx), server)
     pb_grpc.add_MonitorServicer_to_server(MonitorServicer(ctx), server)
-    try:
-        from controller.service.jara import add_jara_servicers
-    except ImportError:  # pragma: no cover - during development only
-        return
     add_jara_servicers(server, ctx)
 
 

@@ -14,6 +14,8 @@ import grpc
 import numpy as np
 
 from controller.conversions import ArgumentError
+from controller.daemon.control import CartesianBox
+from controller.enums import RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.service.base import (
@@ -59,10 +61,10 @@ class ManipulatorCommonServicer(pb_grpc.ManipulatorCommonServicer):
         side, _ = self.arms.arm(request.arm)
         return {"pos": self._joint_pos(side)}
 
-    def _joint_pos(self, side) -> list[float]:
+    def _joint_pos(self, side: RightLeft) -> list[float]:
         snap = self.ctx.snapshot()
         view = self.ctx.view
-        unit = view.unit_positions(snap, {0: _unit("RIGHT_ARM"), 1: _unit("LEFT_ARM")}[int(side)])
+        unit = view.unit_positions(snap, UnitType[f"{side.name}_ARM"])
         values = unit.tolist()
         grippers = self.ctx.robot.profile.grippers
         if side.name in grippers:
@@ -141,12 +143,6 @@ class ManipulatorCommonServicer(pb_grpc.ManipulatorCommonServicer):
             )
             self.ctx.planner.set_joint_limits(joints, np.radians(lower), np.radians(upper))
             s.soft_lower, s.soft_upper = lower, upper
-
-
-def _unit(name: str):
-    from controller.enums import UnitType
-
-    return UnitType[name]
 
 
 class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
@@ -360,9 +356,7 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
             s.soft_box = (lo, hi)
             self._push_box(side)
 
-    def _push_box(self, side) -> None:
-        from controller.daemon.control import CartesianBox
-
+    def _push_box(self, side: RightLeft) -> None:
         s = self.arms.arms[side]
         box = None
         if s.soft_box is not None:
