@@ -319,3 +319,20 @@ def test_shutdown_servo_off_after_the_timeout(ctl: Controller):
     ctl._step(ctl.core.cycles, 0.0)  # starts the stop, sets the deadline
     assert ctl._step(ctl.core.cycles, 0.0) is False  # past it: servo off, end
     assert ctl.core.state == CoreState.SERVO_OFF and ctl.core.kin.q[0] < 1.0
+
+
+def test_a_request_whose_caller_gave_up_is_never_executed():
+    from controller.daemon.control import Request
+
+    request = Request("servo_off", {})
+    request.cancelled = True
+    calls = []
+    handlers = {"servo_off": lambda: calls.append(1)}
+
+    class Stub:
+        _handlers = handlers
+
+    from controller.daemon.control import Controller
+
+    Controller._execute(Stub(), request)  # type: ignore[arg-type]
+    assert calls == [] and not request.ok

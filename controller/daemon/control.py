@@ -66,6 +66,8 @@ class Request:
     value: Any = None
     code: str = "NG"
     message: str = ""
+    #: Set when the caller stopped waiting; the loop then drops the request unexecuted.
+    cancelled: bool = False
 
 
 @dataclass
@@ -144,6 +146,8 @@ class Controller:
         self.loop.run()
 
     def _execute(self, request: Request) -> None:
+        if request.cancelled:  # its caller gave up waiting: never act on it late
+            return
         handler = self._handlers.get(request.name)
         try:
             if handler is None:
@@ -163,6 +167,7 @@ class Controller:
         request = Request(name, args)
         self.inbox.put(request)
         if not request.done.wait(timeout):
+            request.cancelled = True
             request.code, request.message = "NG", "the control loop did not answer in time"
         return request
 
