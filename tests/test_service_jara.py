@@ -397,3 +397,20 @@ def test_alarm_state_bit_and_status_err(d):
     assert code(d.common.ServoON(C("ServoON"))) == Code.NG
     d.common.ClearAlarms(C("ClearAlarms"))
     assert code(d.common.ServoON(C("ServoON"))) == OK
+
+
+def test_cmd_cycle_set_points_stream_into_one_motion(d):
+    import time
+
+    start = joints(d)[:7]
+    comments = []
+    for k in range(1, 16):
+        target = start.copy()
+        target[0] += 0.5 * k  # deg: 25 deg/s at a 20 ms command cycle
+        r = d.middle.MovePTPJointAbsCmdCycle(M("MovePTPJointAbsCmdCycle", joint_points=target))
+        assert code(r) == OK, r.return_id.comment
+        comments.append(r.return_id.comment)
+        time.sleep(d.cfg.jara.cmd_cycle_ms / 1000.0)
+    assert any("stream" in c for c in comments), comments
+    assert d.wait_idle()
+    np.testing.assert_allclose(joints(d)[:7], target, atol=1e-3)

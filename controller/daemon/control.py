@@ -33,7 +33,7 @@ import pinocchio as pin
 from controller.alarms import AlarmCode
 from controller.core import CoreError, CoreState, MotionCore
 from controller.daemon import snapshot as snap
-from controller.daemon.motion_specs import MotionSpec
+from controller.daemon.motion_specs import JointStreamSpec, MotionSpec
 from controller.enums import FrameType, RightLeft
 from controller.loop import FixedRateLoop
 from controller.robot import Robot
@@ -340,10 +340,19 @@ class Controller:
     def cmd_start(self, spec: MotionSpec, queued: bool = False) -> str:
         """Start ``spec`` now (READY only) or, ``queued``, append it behind the running one.
 
-        Returns "started" or "queued".
+        Returns "started", "queued", or "extended" (a streamed set-point joined the running
+        stream).
         """
         self._require_powered()
         state = self.core.state
+        if (
+            isinstance(spec, JointStreamSpec)
+            and not self.queue
+            and state in (CoreState.BUSY, CoreState.PAUSED)
+            and spec.extends(self.core.motion)
+        ):
+            self.core.motion.extend(spec.target)  # type: ignore[union-attr]
+            return "extended"
         if not queued:
             if state != CoreState.READY:
                 raise Refused(

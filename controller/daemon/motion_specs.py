@@ -27,6 +27,7 @@ from controller.motion.motions import (
     VehicleMotion,
 )
 from controller.motion.paths import ArcPath, LinePath
+from controller.motion.stream import JointStreamMotion
 from controller.redundant_axes import RedundantAxis
 
 Range = tuple[float, float]
@@ -143,3 +144,30 @@ class VehicleMoveSpec(MotionSpec):
 
     def build(self, kin: Kinematics, dt: float) -> Motion:
         return VehicleMotion(kin, dt, self.target, self.speed, self.accel)
+
+
+@dataclass
+class JointStreamSpec(MotionSpec):
+    """A streamed joint set-point (JARA ``...CmdCycle``): starts a stream, or extends the
+    running stream with the same ``key`` and joints (see controller/motion/stream.py)."""
+
+    joints: np.ndarray
+    target: np.ndarray
+    v_max: np.ndarray  #: per joint [rad/s, m/s]
+    a_max: np.ndarray
+    period: float  #: command cycle [s]
+    key: str = ""
+
+    def build(self, kin: Kinematics, dt: float) -> Motion:
+        return JointStreamMotion(
+            kin, dt, self.joints, self.target, self.v_max, self.a_max, self.period, self.key
+        )
+
+    def extends(self, motion: Motion | None) -> bool:
+        """True when ``motion`` is a stream this set-point continues."""
+        return (
+            isinstance(motion, JointStreamMotion)
+            and motion.key == self.key
+            and np.array_equal(motion.joints, self.joints)
+            and not motion.finished
+        )

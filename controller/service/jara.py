@@ -432,10 +432,13 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
             raise ArgumentError(f"jointPoints: gripper value {value:g} is outside its range")
         self.ctx.call("gripper", side=side, ratio=float(np.clip(ratio, 0.0, 1.0)))
 
-    def _ptp_joint(self, request, relative: bool, duration: float | None = None):
+    def _ptp_joint(self, request, relative: bool, stream: bool = False):
         side, _ = self.arms.arm(request.arm)
         values, gripper = self._joints_arg(side, request.joint_points)
-        result = self.arms.ptp_joint(side, values, relative, duration)
+        if stream:
+            result = self.arms.stream_joint(side, values, relative)
+        else:
+            result = self.arms.ptp_joint(side, values, relative)
         if gripper is not None:
             self._gripper_value(side, gripper)
         return result
@@ -450,16 +453,18 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
 
     @rpc(_r(M, "MovePTPJointAbsCmdCycle"))
     def MovePTPJointAbsCmdCycle(self, request):
-        return self._ptp_joint(request, relative=False, duration=self.arms.cmd_cycle)
+        return self._ptp_joint(request, relative=False, stream=True)
 
     @rpc(_r(M, "MovePTPJointRelCmdCycle"))
     def MovePTPJointRelCmdCycle(self, request):
-        return self._ptp_joint(request, relative=True, duration=self.arms.cmd_cycle)
+        return self._ptp_joint(request, relative=True, stream=True)
 
-    def _linear(self, request, relative: bool, duration: float | None = None):
+    def _linear(self, request, relative: bool, stream: bool = False):
         side, _ = self.arms.arm(request.arm)
         target = car_pos_arg(request.car_point, "carPoint")
-        return self.arms.linear(side, target, relative, "carPoint", duration=duration)
+        if stream:  # one command cycle apart: the joint stream through the IK solutions
+            return self.arms.stream_cartesian(side, target, relative, "carPoint")
+        return self.arms.linear(side, target, relative, "carPoint")
 
     @rpc(_r(M, "MoveLinearCartesianAbs"))
     def MoveLinearCartesianAbs(self, request):
@@ -471,16 +476,18 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
 
     @rpc(_r(M, "MoveLinearCartesianAbsCmdCycle"))
     def MoveLinearCartesianAbsCmdCycle(self, request):
-        return self._linear(request, relative=False, duration=self.arms.cmd_cycle)
+        return self._linear(request, relative=False, stream=True)
 
     @rpc(_r(M, "MoveLinearCartesianRelCmdCycle"))
     def MoveLinearCartesianRelCmdCycle(self, request):
-        return self._linear(request, relative=True, duration=self.arms.cmd_cycle)
+        return self._linear(request, relative=True, stream=True)
 
-    def _ptp_cart(self, request, relative: bool, duration: float | None = None):
+    def _ptp_cart(self, request, relative: bool, stream: bool = False):
         side, _ = self.arms.arm(request.arm)
         target = car_pos_arg(request.car_point, "carPoint")
-        return self.arms.ptp_cartesian(side, target, relative, "carPoint", duration)
+        if stream:
+            return self.arms.stream_cartesian(side, target, relative, "carPoint")
+        return self.arms.ptp_cartesian(side, target, relative, "carPoint")
 
     @rpc(_r(M, "MovePTPCartesianAbs"))
     def MovePTPCartesianAbs(self, request):
@@ -492,11 +499,11 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
 
     @rpc(_r(M, "MovePTPCartesianAbsCmdCycle"))
     def MovePTPCartesianAbsCmdCycle(self, request):
-        return self._ptp_cart(request, relative=False, duration=self.arms.cmd_cycle)
+        return self._ptp_cart(request, relative=False, stream=True)
 
     @rpc(_r(M, "MovePTPCartesianRelCmdCycle"))
     def MovePTPCartesianRelCmdCycle(self, request):
-        return self._ptp_cart(request, relative=True, duration=self.arms.cmd_cycle)
+        return self._ptp_cart(request, relative=True, stream=True)
 
     def _circular(self, request, relative: bool):
         side, _ = self.arms.arm(request.arm)

@@ -22,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from controller.conversions import ArgumentError
-from controller.daemon.motion_specs import DualCartesianSpec, MotionSpec
+from controller.daemon.motion_specs import DualCartesianSpec, JointStreamSpec, MotionSpec
 from controller.daemon.snapshot import Snapshot
 from controller.enums import FrameType, RightLeft, UnitType
 from controller.kinematics import Kinematics
@@ -203,6 +203,8 @@ class JaraArms:
         planner.remember(q_end, poses)
         if result == "queued":
             return {"comment": "OK (queued behind the running motion)"}
+        if result == "extended":
+            return {"comment": "OK (set-point joined the running stream)"}
         return {}
 
     def check_box(self, settings: ArmSettings, pose_arm: pin.SE3, name: str) -> None:
@@ -250,7 +252,6 @@ class JaraArms:
         relative: bool,
         name: str,
         via: CarPos | None = None,
-        duration: float | None = None,
     ) -> dict[str, str]:
         settings = self.arms[side]
         snap, q0 = self._start_state()
@@ -260,8 +261,7 @@ class JaraArms:
             via_pose = None
             if via is not None:
                 via_pose, _ = self._target(kin, side, settings, via, relative, "car_point_r")
-        ratio = 100.0 if duration is not None else None
-        speed, accel = settings.cartesian_speed(ratio)
+        speed, accel = settings.cartesian_speed()
         allowed = {elbow_axis(side): True} if elbow is not None else {}
         with unreachable_is_value_err():
             spec, q_end = planner.cartesian(
@@ -276,7 +276,6 @@ class JaraArms:
                 False,
                 elbow=elbow,
                 via=via_pose,
-                duration=duration,
                 label=f"{side.name} {'arc' if via else 'linear'} move",
             )
         return self.submit(spec, q_end, {side: goal})
@@ -287,23 +286,14 @@ class JaraArms:
         target: CarPos,
         relative: bool,
         name: str,
-        duration: float | None = None,
     ) -> dict[str, str]:
         settings = self.arms[side]
         snap, q0 = self._start_state()
         q_goal, goal = self.ptp_goal(snap, q0, side, target, relative, name)
         joints = self.joints(side)
-        v, a = settings.joint_speed(100.0 if duration is not None else None)
+        v, a = settings.joint_speed()
         spec = self.ctx.planner.joint(
-            q0,
-            joints,
-            q_goal[joints],
-            v,
-            a,
-            duration,
-            label=f"{side.name} PTP move",
-            absolute=True,
-            strict_duration=False,
+            q0, joints, q_goal[joints], v, a, label=f"{side.name} PTP move", absolute=True
         )
         return self.submit(spec, q_goal, {side: goal})
 
@@ -312,28 +302,56 @@ class JaraArms:
         side: RightLeft,
         values_deg: np.ndarray,
         relative: bool,
-        duration: float | None = None,
         label: str = "PTP joint move",
     ) -> dict[str, str]:
         settings = self.arms[side]
         _, q0 = self._start_state()
         joints = self.joints(side)
         target = self.joint_target(side, values_deg, q0, relative, "jointPoints")
-        v, a = settings.joint_speed(100.0 if duration is not None else None)
+        v, a = settings.joint_speed()
         spec = self.ctx.planner.joint(
-            q0,
-            joints,
-            target,
-            v,
-            a,
-            duration,
-            label=f"{side.name} {label}",
-            absolute=True,
-            strict_duration=False,
+            q0, joints, target, v, a, label=f"{side.name} {label}", absolute=True
         )
         q_end = q0.copy()
         q_end[joints] = target
         return self.submit(spec, q_end)
+
+    # ------------------------------------------------------------------ streams
+    def _stream(
+        self,
+        side: RightLeft,
+        q_goal: np.ndarray,
+        q0: np.ndarray,
+        poses: dict[RightLeft, pin.SE3] | None = None,
+    ) -> dict[str, str]:
+        """A ...CmdCycle set-point: joins the arm's running stream or starts one."""
+        settings = self.arms[side]
+        joints = self.joints(side)
+        spec = JointStreamSpec(
+            joints=joints,
+            target=q_goal[joints].copy(),
+            v_max=np.radians(settings.max_speed_joint),
+            a_max=np.radians(settings.hw_accel),
+            period=self.cmd_cycle,
+            key=side.name,
+            planned_from=q0.copy(),
+            label=f"{side.name} streamed set-point",
+        )
+        q_end = q0.copy()
+        q_end[joints] = q_goal[joints]
+        return self.submit(spec, q_end, poses)
+
+    def stream_joint(self, side: RightLeft, values_deg: np.ndarray, relative: bool):
+        _, q0 = self._start_state()
+        target = self.joint_target(side, values_deg, q0, relative, "jointPoints")
+        q_goal = q0.copy()
+        q_goal[self.joints(side)] = target
+        return self._stream(side, q_goal, q0)
+
+    def stream_cartesian(self, side: RightLeft, target: CarPos, relative: bool, name: str):
+        snap, q0 = self._start_state()
+        q_goal, goal = self.ptp_goal(snap, q0, side, target, relative, name)
+        return self._stream(side, q_goal, q0, {side: goal})
 
     def joint_target(
         self, side: RightLeft, values_deg: np.ndarray, q0: np.ndarray, relative: bool, name: str

@@ -173,13 +173,12 @@ class Planner:
         hold: tuple[RightLeft, ...] = (),
         label: str = "joint move",
         absolute: bool = False,
-        strict_duration: bool = True,
     ) -> JointMoveSpec:
         """Joint move; ``speed``/``accel`` are shares of the joints' limits unless
         ``absolute`` (then SI per joint). Targets outside the limits are VALUE_ERR.
 
         ``duration``: the move takes exactly this long; too short for the joints' limits is
-        VALUE_ERR when ``strict_duration``, else the move takes as long as it must."""
+        VALUE_ERR."""
         kin = self.view.kin
         names = [kin.joint_names[i] for i in joints]
         specs = [self.view.robot.joints[n] for n in names]
@@ -200,7 +199,7 @@ class Planner:
         else:
             v = v_lim * speed
             a = a_lim * accel
-        if duration is not None and strict_duration:
+        if duration is not None:
             need = min_duration(np.abs(target - q0[joints]), v_lim, a)
             if duration + 1e-9 < need:
                 raise Failure(
