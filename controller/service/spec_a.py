@@ -378,7 +378,7 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         return self._unit_move(request, relative=True)
 
     # ------------------------------------------------------------------ CP hold
-    def _cp_hold(self, request, relative: bool) -> None:
+    def _cp_hold(self, request, relative: bool) -> dict[str, str] | None:
         side = side_arg(self.view, request.type)
         pos = request.rel_pos if relative else request.abs_pos
         pos_name = "rel_pos" if relative else "abs_pos"
@@ -422,6 +422,7 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         q0 = planner.base_q(snap, queued=False)
         targets: dict[RedundantAxis, float] = {}
         speeds, accels = [], []
+        vehicle_moves = False
         with planner.view.at(snap, q0) as kin:
             for axis, (value, v, a, name) in axes.items():
                 current = axis_value(kin, axis)
@@ -434,6 +435,7 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
                     positive_arg(a, f"accel.{name}")
                 if abs(delta) <= 1e-9 and not axis.is_vehicle:
                     continue  # not moving: held (its joints are frozen)
+                vehicle_moves = vehicle_moves or (axis.is_vehicle and abs(delta) > 1e-9)
                 targets[axis] = goal
                 speeds.append(v if v > 0 else 1.0)
                 accels.append(a if a > 0 else 1.0)
@@ -444,14 +446,13 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
                             f"{pos_name}.{name}: {math.degrees(goal):.2f} deg is outside the "
                             f"waist's range {math.degrees(lo):.1f}..{math.degrees(hi):.1f} deg"
                         )
-        vehicle_moves = any(
-            a.is_vehicle and abs(targets[a] - self._current(snap, q0, a)) > 1e-9 for a in targets
-        )
         if not vehicle_moves:  # the vehicle's three axes go together: hold them all
             for axis in [a for a in targets if a.is_vehicle]:
                 k = list(targets).index(axis)
                 del targets[axis], speeds[k], accels[k]
         require_ready(snap, sv_on_code=False)
+        if not targets:
+            return {"comment": "OK (every redundant axis is already at its target)"}
         held: tuple[RightLeft, ...] = (side,)
         other = RightLeft.LEFT if side == RightLeft.RIGHT else RightLeft.RIGHT
         body_moves = any(a.is_lumbar or a.is_vehicle for a in targets)
@@ -464,18 +465,15 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         if reason is not None:
             raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
         self.ctx.call("start", sv_on_code=False, spec=spec)
+        return None
 
     @rpc(pb.MoveCPHoldAbsResponse)
     def MoveCPHoldAbs(self, request):
-        self._cp_hold(request, relative=False)
+        return self._cp_hold(request, relative=False)
 
     @rpc(pb.MoveCPHoldRelResponse)
     def MoveCPHoldRel(self, request):
-        self._cp_hold(request, relative=True)
-
-    def _current(self, snap: Snapshot, q0: np.ndarray, axis: RedundantAxis) -> float:
-        with self.ctx.planner.view.at(snap, q0) as kin:
-            return axis_value(kin, axis)
+        return self._cp_hold(request, relative=True)
 
     # ------------------------------------------------------------------ Cartesian
     def _linear(self, request, target_field: str, frame: int | None) -> None:
