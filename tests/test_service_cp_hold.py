@@ -72,5 +72,6 @@ def test_a_cp_hold_to_where_the_axes_already_are_is_ok_and_moves_nothing(d):
     (waist0, vehicle0), (right0, _) = state(d)
     cp_hold(d)  # every relative amount 0
     (waist1, vehicle1), (right1, _) = state(d)
+    np.testing.assert_allclose(waist1, waist0, atol=1e-9)
     np.testing.assert_allclose(vehicle1, vehicle0, atol=1e-9)
     np.testing.assert_allclose(right1, right0, atol=1e-9)
