@@ -8,8 +8,8 @@ port, waits until it answers, then runs through the generated gRPC stubs (Spec A
 IntegratedMotion): servoOn; a straight-line move of the right hand; an elbow swing with the
 hand held (moveCPHoldRel); a waist bend (moveUnitAbs LUMBER); a vehicle move with both
 hands held (moveCPHoldRel vehicle_x: when the body moves, CP-hold holds both control points
-on a two-arm robot; both hands' drift is measured and printed); a move that
-is paused and resumed; a move that is stopped. Every ReturnID and every state change
+on a two-arm robot; both hands' drift is measured and printed); a move that is paused and
+resumed (the hand back down, before the vehicle move); a move that is stopped. Every ReturnID and every state change
 (Monitor.StreamState) is printed. Writes to ``--out``:
 
     frames/frame_NNN.png   the robot rendered from the streamed joints, every 0.5 s
@@ -370,8 +370,10 @@ def run_script(s: Session, quick: bool) -> dict[str, Any]:
     figures["line_end_error_mm"] = round(1e3 * float(np.linalg.norm(end - goal)), 3)
 
     # 2. elbow swing, hand held
-    p = s.begin(f"2. elbow swing +/-{swing:g} deg, right hand held", held=(RIGHT, s.pose(RIGHT)))
-    for d in (swing, -2 * swing, swing):
+    p = s.begin(
+        f"2. elbow swing -{swing:g} deg and back, right hand held", held=(RIGHT, s.pose(RIGHT))
+    )
+    for d in (-swing, swing):
         s.motion(
             f"moveCPHoldRel(RIGHT, elbow {d:+g} deg)", a.MoveCPHoldRel, cp_hold_rel(RIGHT, elbow=d)
         )
@@ -387,33 +389,11 @@ def run_script(s: Session, quick: bool) -> dict[str, Any]:
         )
     s.end(p)
 
-    # 4. vehicle move, both hands held (CP-hold holds both hands when the body moves)
-    left0 = s.pose(LEFT)
-    veh0 = s.joints(pb.VEHICLE)
-    p = s.begin(
-        f"4. vehicle +{drive:g} mm forward, both hands held (CP-hold)", held=(RIGHT, s.pose(RIGHT))
-    )
-    s.motion(
-        f"moveCPHoldRel(RIGHT, vehicle_x +{drive:g} mm, 100 mm/s)",
-        a.MoveCPHoldRel,
-        cp_hold_rel(RIGHT, vehicle_x=drive),
-    )
-    s.end(p)
-    veh1 = s.joints(pb.VEHICLE)
-    drift = 1e3 * float(np.linalg.norm(s.pose(LEFT)[:3, 3] - left0[:3, 3]))
-    assert p.held is not None
-    held_err = 1e3 * float(np.linalg.norm(s.pose(RIGHT)[:3, 3] - p.held[1][:3, 3]))
-    log(f"  vehicle {veh0} -> {veh1} (x, y mm, theta deg)")
-    log(f"  right hand (held) moved {held_err:.3f} mm; left hand (held) moved {drift:.3f} mm")
-    figures["vehicle_reached_mm"] = round(veh1[0] - veh0[0], 1)
-    figures["vehicle_held_hand_error_mm"] = round(held_err, 3)
-    figures["vehicle_left_hand_drift_mm"] = round(drift, 3)
-
-    # 5. pause and resume during a move
+    # 4. pause and resume during a move
     start = s.pose(RIGHT)
     goal = start[:3, 3] - np.array([0.0, 0.0, reach / 1e3])
     p = s.begin(
-        f"5. right hand back down {reach:g} mm: pause, resume",
+        f"4. right hand back down {reach:g} mm: pause, resume",
         line=(RIGHT, start[:3, 3].copy(), goal),
     )
     s.call(
@@ -433,12 +413,34 @@ def run_script(s: Session, quick: bool) -> dict[str, Any]:
     end = s.pose(RIGHT)[:3, 3]
     figures["paused_line_end_error_mm"] = round(1e3 * float(np.linalg.norm(end - goal)), 3)
 
-    # 6. stop during a move
-    p = s.begin(f"6. vehicle back {drive:g} mm, stopped halfway", held=(RIGHT, s.pose(RIGHT)))
-    s.call(
+    # 5. vehicle move, both hands held (CP-hold holds both hands when the body moves)
+    left0 = s.pose(LEFT)
+    veh0 = s.joints(pb.VEHICLE)
+    p = s.begin(
+        f"5. vehicle {drive:g} mm backward, both hands held (CP-hold)", held=(RIGHT, s.pose(RIGHT))
+    )
+    s.motion(
         f"moveCPHoldRel(RIGHT, vehicle_x -{drive:g} mm, 100 mm/s)",
         a.MoveCPHoldRel,
         cp_hold_rel(RIGHT, vehicle_x=-drive),
+    )
+    s.end(p)
+    veh1 = s.joints(pb.VEHICLE)
+    drift = 1e3 * float(np.linalg.norm(s.pose(LEFT)[:3, 3] - left0[:3, 3]))
+    assert p.held is not None
+    held_err = 1e3 * float(np.linalg.norm(s.pose(RIGHT)[:3, 3] - p.held[1][:3, 3]))
+    log(f"  vehicle {veh0} -> {veh1} (x, y mm, theta deg)")
+    log(f"  right hand (held) moved {held_err:.3f} mm; left hand (held) moved {drift:.3f} mm")
+    figures["vehicle_reached_mm"] = round(veh0[0] - veh1[0], 1)
+    figures["vehicle_held_hand_error_mm"] = round(held_err, 3)
+    figures["vehicle_left_hand_drift_mm"] = round(drift, 3)
+
+    # 6. stop during a move
+    p = s.begin(f"6. vehicle forward {drive:g} mm, stopped halfway", held=(RIGHT, s.pose(RIGHT)))
+    s.call(
+        f"moveCPHoldRel(RIGHT, vehicle_x +{drive:g} mm, 100 mm/s)",
+        a.MoveCPHoldRel,
+        cp_hold_rel(RIGHT, vehicle_x=drive),
     )
     s.wait_started()
     time.sleep(0.6 if quick else 0.9)
