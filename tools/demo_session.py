@@ -9,8 +9,8 @@ IntegratedMotion): servoOn; a straight-line move of the right hand; an elbow swi
 hand held (moveCPHoldRel); a waist bend (moveUnitAbs LUMBER); a vehicle move with both
 hands held (moveCPHoldRel vehicle_x: when the body moves, CP-hold holds both control points
 on a two-arm robot; both hands' drift is measured and printed); a move that is paused and
-resumed (the hand back down, before the vehicle move); a move that is stopped. Every ReturnID and every state change
-(Monitor.StreamState) is printed. Writes to ``--out``:
+resumed (the hand back down, before the vehicle move); a move that is stopped. Every
+ReturnID and every state change (Monitor.StreamState) is printed. Writes to ``--out``:
 
     frames/frame_NNN.png   the robot rendered from the streamed joints, every 0.5 s
     frames.png             a contact sheet of the frames
