@@ -23,9 +23,9 @@ HAL_KINDS = ("sim", "ideal", "hil", "can")
 def make_hardware(
     kind: str, robot: Robot, dt: float, options: dict[str, Any] | None = None
 ) -> HardwareInterface:
-    """A configured-but-inactive-ready backend of ``kind`` for ``robot`` at period ``dt`` [s].
+    """An unconfigured backend of ``kind`` for ``robot`` at period ``dt`` [s].
 
-    ``options`` are backend-specific settings from the daemon configuration (``hal.options``).
+    ``options`` are backend-specific settings from the daemon configuration (``hal_options``).
     Raises ``ValueError`` naming the problem for an unknown kind or bad options.
     """
     options = dict(options or {})
