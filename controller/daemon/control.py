@@ -108,7 +108,8 @@ class Controller:
         self.finished = 0
         self._running_motion: object = None
         self._stats_every = max(1, round(STATS_PERIOD * rate_hz))
-        self._t0 = time.monotonic()
+        #: The original frame or a control-point offset changed since the last publish.
+        self._frames_changed = True
         #: Set by a signal handler: decelerate, servo off, leave the loop.
         self.shutdown_requested = threading.Event()
         self._shutdown_deadline: float | None = None
@@ -254,13 +255,8 @@ class Controller:
         v[snap.V_STAMP] = time.monotonic()
         w.q[:] = core.measured_hw
         w.q_cmd[:] = core.hw_command
-        kin = core.kin
-        v[snap.V_ORIGINAL : snap.V_ORIGINAL + 12] = kin.original_frame.homogeneous[:3].ravel()
-        v[snap.V_ORIGINAL_THETA] = kin.original_theta
-        for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
-            if side in kin.arms:
-                off = kin.control_point_offset(side).homogeneous[:3].ravel()
-                v[snap.V_OFFSETS + 12 * k : snap.V_OFFSETS + 12 * (k + 1)] = off
+        if self._frames_changed:
+            self._publish_frames()
         if core.cycles % self._stats_every == 0:
             self._publish_stats()
         w.set_alarms(
@@ -275,6 +271,18 @@ class Controller:
             ]
         )
         w.end()
+
+    def _publish_frames(self) -> None:
+        """Original frame and control-point offsets (between begin() and end()). They change
+        only through commands, so they are written then, not every cycle (~5 us saved)."""
+        kin, v = self.core.kin, self.writer.values
+        v[snap.V_ORIGINAL : snap.V_ORIGINAL + 12] = kin.original_frame.homogeneous[:3].ravel()
+        v[snap.V_ORIGINAL_THETA] = kin.original_theta
+        for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
+            if side in kin.arms:
+                off = kin.control_point_offset(side).homogeneous[:3].ravel()
+                v[snap.V_OFFSETS + 12 * k : snap.V_OFFSETS + 12 * (k + 1)] = off
+        self._frames_changed = False
 
     def _publish_stats(self) -> None:
         stats = self.loop.stats
@@ -404,10 +412,12 @@ class Controller:
     def cmd_reset_original_frame(self) -> None:
         self._require_still("resetOriginalFrame")
         self.core.kin.reset_original_frame()
+        self._frames_changed = True
 
     def cmd_set_control_point_offset(self, side: RightLeft, offset: np.ndarray) -> None:
         self._require_still("setControlPointOffset")
         self.core.kin.set_control_point_offset(side, pin.SE3(offset))
+        self._frames_changed = True
 
     def cmd_set_joint_limits(self, indices: np.ndarray, lower: np.ndarray, upper: np.ndarray):
         """Narrow (or restore) the IK position limits of kinematic joints ``indices``."""
