@@ -44,10 +44,9 @@ class RobotView:
                 if side in kin.arms:
                     off = np.vstack([snap.offsets[k], [0.0, 0.0, 0.0, 1.0]])
                     kin.set_control_point_offset(side, pin.SE3(off))
-            if snap.hw_state != "unconfigured" or snap.cycle > 0:
-                original = np.vstack([snap.original, [0.0, 0.0, 0.0, 1.0]])
-                if abs(np.linalg.det(original[:3, :3]) - 1.0) < 1e-6:
-                    kin.set_original_frame(pin.SE3(original), snap.original_theta)
+            # The controller publishes its frames before the gateway starts: always valid.
+            original = np.vstack([snap.original, [0.0, 0.0, 0.0, 1.0]])
+            kin.set_original_frame(pin.SE3(original), snap.original_theta)
             kin.update(snap.q[self.hw_index] if q is None else q)
             yield kin
 
