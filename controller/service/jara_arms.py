@@ -445,5 +445,5 @@ class JaraArms:
             {elbow_axis(side): True} if planner.view.kin.has_elbow(side) else {}
         )
         with unreachable_is_value_err():
-            _, q_goal = planner.ptp_cartesian(snap, q0, side, goal, allowed, {}, False, None)
+            q_goal, _, _ = planner.pose_goal(snap, q0, side, goal, allowed, {}, False)
         return q_goal, goal

@@ -119,7 +119,7 @@ class Planner:
             spec.path_limits = limits
         return spec, q_end
 
-    def ptp_cartesian(
+    def pose_goal(
         self,
         snap: Snapshot,
         q0: np.ndarray,
@@ -128,12 +128,9 @@ class Planner:
         allowed: dict[RedundantAxis, bool],
         ranges: dict[RedundantAxis, Range | None],
         hold_other: bool,
-        duration: float | None,
-        speed_share: float = 1.0,
-        accel_share: float = 0.5,
-        label: str = "PTP Cartesian move",
-    ) -> tuple[JointMoveSpec, np.ndarray]:
-        """Joint-space move to the IK solution of ``target`` under the mask and ranges."""
+    ) -> tuple[np.ndarray, np.ndarray, tuple[RightLeft, ...]]:
+        """IK solution of ``target`` under the mask and ranges: the configuration, the joints
+        a move there uses and the arms it must hold; Failure(CANNOT_REACH_TARGET_ERR) if none."""
         probe = CartesianMoveSpec(
             side=side,
             target=target.homogeneous.copy(),
@@ -149,16 +146,26 @@ class Planner:
             q_goal, reason = self.checker.solve_pose(kin, side, target, setup, hold)
         if reason is not None:
             raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
-        joints = np.flatnonzero(~setup.frozen)
+        return q_goal, np.flatnonzero(~setup.frozen), (() if hold is None else (hold,))
+
+    def ptp_cartesian(
+        self,
+        snap: Snapshot,
+        q0: np.ndarray,
+        side: RightLeft,
+        target: pin.SE3,
+        allowed: dict[RedundantAxis, bool],
+        ranges: dict[RedundantAxis, Range | None],
+        hold_other: bool,
+        duration: float | None,
+        speed_share: float = 1.0,
+        accel_share: float = 0.5,
+        label: str = "PTP Cartesian move",
+    ) -> tuple[JointMoveSpec, np.ndarray]:
+        """Joint-space move to the IK solution of ``target`` under the mask and ranges."""
+        q_goal, joints, hold = self.pose_goal(snap, q0, side, target, allowed, ranges, hold_other)
         spec = self.joint(
-            q0,
-            joints,
-            q_goal[joints],
-            speed_share,
-            accel_share,
-            duration,
-            hold=(other_side(side),) if probe.hold_other else (),
-            label=label,
+            q0, joints, q_goal[joints], speed_share, accel_share, duration, hold=hold, label=label
         )
         return spec, q_goal
 
