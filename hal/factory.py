@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from controller.robot import Robot
+from controller.model.robot import Robot
 from hal.interface import HardwareInterface
 
 HAL_KINDS = ("sim", "ideal", "hil", "can")

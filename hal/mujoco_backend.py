@@ -68,7 +68,7 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from controller.robot import Robot
+from controller.model.robot import Robot
 from hal.interface import (
     HardwareFault,
     HardwareInterface,

@@ -11,8 +11,8 @@ from __future__ import annotations
 import can
 import numpy as np
 
-from controller.core import MotionCore
-from controller.robot import Robot
+from controller.control.core import MotionCore
+from controller.model.robot import Robot
 from hal.can.backend import CanBackend
 from hal.can.drive_profile import DriveProfile, drives_path, load_drive_profile
 from hal.emulator.emulator import DriveEmulator

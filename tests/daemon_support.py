@@ -10,11 +10,11 @@ from typing import Any
 
 import grpc
 
-from controller.daemon.config import load_config
+from controller.contract.config import load_config
 from controller.daemon.main import Daemon
+from controller.gateway.process import start_gateway
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.service.gateway import start_gateway
 
 
 class TestDaemon:

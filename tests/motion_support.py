@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from controller.core import CoreState, MotionCore
+from controller.control.core import CoreState, MotionCore
 from controller.motion.motions import Motion
 from hal.ideal_backend import IdealBackend
 from hal.mujoco_backend import MujocoBackend

@@ -7,8 +7,8 @@ import functools
 import numpy as np
 
 from config import robot_ids
-from controller.kinematics import Kinematics
-from controller.robot import Robot, load_robot
+from controller.model.kinematics import Kinematics
+from controller.model.robot import Robot, load_robot
 
 ROBOT_IDS = robot_ids()
 #: Range [m] / [rad] drawn for unbounded vehicle axes in random configurations.

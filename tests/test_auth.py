@@ -1,4 +1,4 @@
-"""controller.service.auth: the token interceptor, read vs motion tokens end to end, and a
+"""controller.gateway.grpc.auth: the token interceptor, read vs motion tokens end to end, and a
 TLS + token daemon on 127.0.0.1."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ import grpc
 import numpy as np
 import pytest
 
-from controller.daemon.config import TokensConfig
+from controller.contract.config import TokensConfig
+from controller.gateway.grpc.auth import TokenInterceptor, is_read_only
+from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.service.auth import TokenInterceptor, is_read_only
-from controller.service.codes import SpecAState as S
 from tests.daemon_support import TestDaemon
 
 READ, MOTION = "read-token-1", "motion-token-2"

@@ -12,9 +12,9 @@ import can
 import numpy as np
 import pytest
 
-from controller.alarms import AlarmCode
-from controller.core import CoreState, MotionCore
-from controller.enums import UnitType
+from controller.control.core import CoreState, MotionCore
+from controller.model.alarms import AlarmCode
+from controller.model.vocabulary import UnitType
 from controller.motion.motions import JointMotion
 from hal.can import pdo
 from hal.can.backend import Port

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from config import ROBOTS_DIR, robot_ids
-from controller.yaml_source import ConfigError
+from controller.model.yaml_source import ConfigError
 from hal.can.drive_profile import DEFAULT_EDS, drives_path, eds_path, load_drive_profile
 from tests.support import robot
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from controller.alarms import AlarmCode
+from controller.model.alarms import AlarmCode
 from hal.can.cia402 import State
 from hal.can.supervision import DriveError, Supervisor
 

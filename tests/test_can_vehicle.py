@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from controller.profile import Wheels
+from controller.model.profile import Wheels
 from hal.can.vehicle import VehicleMapping, wheel_matrix
 
 OMNI = Wheels(kind="omni", count=3, radius=0.075, track=0.45)

@@ -1,4 +1,4 @@
-"""controller.daemon.channel: the authenticated Unix-socket command channel."""
+"""controller.contract.channel: the authenticated Unix-socket command channel."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from typing import Any
 
 import pytest
 
-from controller.daemon.channel import KEY_NAME, ChannelError, CommandClient, CommandServer
-from controller.daemon.control import Request
+from controller.contract.channel import KEY_NAME, ChannelError, CommandClient, CommandServer
+from controller.control.process import Request
 
 
 class FakeController:

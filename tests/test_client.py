@@ -20,7 +20,6 @@ import pytest
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
-from controller import enums as core_enums
 from controller.client import (
     LEFT,
     RIGHT,
@@ -45,6 +44,7 @@ from controller.client import (
 )
 from controller.client.service import Operation, Result, ServiceProxy
 from controller.client.types import ENUM_TYPES, MESSAGE_TYPES, RightLeft, UnitType
+from controller.model import vocabulary as core_enums
 from controller.rpc import imotion_pb2, imotion_pb2_grpc
 from tests import client_fake
 
@@ -282,7 +282,7 @@ def test_argument_forms(client: Client, fake: client_fake.FakeDaemon) -> None:
     assert r.frame_type == imotion_pb2.TOOL_FRAME
     assert (r.speed.translation, r.accel.rotation) == (50.0, 100.0)
 
-    # keywords by original or proto name, enums from controller.enums or numbers
+    # keywords by original or proto name, enums from controller.model.vocabulary or numbers
     client.integrated.moveUnitAbs(
         unit=core_enums.UnitType.LUMBER, absPos=[1, 2], speed=[3], accel=np.array([4.0])
     )

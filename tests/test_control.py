@@ -1,4 +1,4 @@
-"""controller.daemon.control: the loop-side Controller without gRPC.
+"""controller.control.process: the loop-side Controller without gRPC.
 
 Commands are called in the test thread between explicit cycles (``_step``), as the loop
 thread would; one test goes through :meth:`Controller.submit` from another thread.
@@ -14,13 +14,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from controller.alarms import AlarmCode
-from controller.core import CoreState
-from controller.daemon import snapshot as snap
-from controller.daemon.control import CartesianBox, Controller, Refused, Request
-from controller.daemon.motion_specs import JointMoveSpec
-from controller.enums import FrameType, RightLeft
-from controller.kinematics import Kinematics
+from controller.contract import snapshot as snap
+from controller.contract.motion_specs import CartesianBox, JointMoveSpec
+from controller.control.core import CoreState
+from controller.control.process import Controller, Refused, Request
+from controller.model.alarms import AlarmCode
+from controller.model.kinematics import Kinematics
+from controller.model.vocabulary import FrameType, RightLeft
 from controller.motion.motions import Motion
 from hal.ideal_backend import IdealBackend
 from hal.interface import HardwareFault
@@ -322,7 +322,7 @@ def test_shutdown_servo_off_after_the_timeout(ctl: Controller):
 
 
 def test_a_request_whose_caller_gave_up_is_never_executed():
-    from controller.daemon.control import Request
+    from controller.control.process import Request
 
     request = Request("servo_off", {})
     request.cancelled = True
@@ -332,7 +332,7 @@ def test_a_request_whose_caller_gave_up_is_never_executed():
     class Stub:
         _handlers = handlers
 
-    from controller.daemon.control import Controller
+    from controller.control.process import Controller
 
     Controller._execute(Stub(), request)  # type: ignore[arg-type]
     assert calls == [] and not request.ok

@@ -1,4 +1,4 @@
-"""controller.core: states, faults becoming alarms, recovery, grippers, threads."""
+"""controller.control.core: states, faults becoming alarms, recovery, grippers, threads."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import threading
 import numpy as np
 import pytest
 
-from controller.alarms import AlarmCode
-from controller.core import CoreError, CoreState, MotionCore
-from controller.enums import RightLeft, UnitType
+from controller.control.core import CoreError, CoreState, MotionCore
+from controller.model.alarms import AlarmCode
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.motion.motions import JointMotion
 from controller.qp.ik import IKResult
 from hal.ideal_backend import IdealBackend

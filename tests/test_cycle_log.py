@@ -1,4 +1,4 @@
-"""controller.daemon.cycle_log: every cycle kept, chronological, written as .npz."""
+"""controller.control.cycle_log: every cycle kept, chronological, written as .npz."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.daemon.cycle_log import CycleLog
+from controller.control.cycle_log import CycleLog
 
 
 def test_keeps_every_cycle_and_the_window(tmp_path: Path) -> None:

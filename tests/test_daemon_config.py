@@ -1,4 +1,4 @@
-"""controller.daemon.config: defaults, the YAML file, --set and flag overrides, listen
+"""controller.contract.config: defaults, the YAML file, --set and flag overrides, listen
 addresses and the security rules."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from controller.daemon.config import (
+from controller.contract.config import (
     DEFAULT_LISTEN,
     DaemonConfig,
     is_local,
@@ -16,7 +16,7 @@ from controller.daemon.config import (
     parse_listen,
     security_problems,
 )
-from controller.yaml_source import ConfigError
+from controller.model.yaml_source import ConfigError
 
 
 def test_defaults():

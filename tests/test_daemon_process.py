@@ -23,9 +23,9 @@ from pathlib import Path
 import grpc
 import pytest
 
+from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.service.codes import SpecAState as S
 
 REPO = Path(__file__).resolve().parents[1]
 EXIT_BOUND = 20.0  # s: "exits by itself", not a timing figure

@@ -1,4 +1,4 @@
-"""controller.elbow: the swivel-angle definition, its continuity and its gradient."""
+"""controller.model.elbow: the swivel-angle definition, its continuity and its gradient."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from controller.elbow import MIN_OFFSET, reference_vector, swivel
-from controller.enums import RightLeft
+from controller.model.elbow import MIN_OFFSET, reference_vector, swivel
+from controller.model.vocabulary import RightLeft
 from tests.support import kinematics
 
 F = np.array([1.0, 0.0, 0.0])  # forward

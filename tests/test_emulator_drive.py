@@ -11,7 +11,7 @@ import canopen
 import pytest
 from canopen.sdo import SdoAbortedError
 
-from controller.robot import load_robot
+from controller.model.robot import load_robot
 from hal.can.drive_profile import DEFAULT_EDS
 from hal.emulator.drive import EmulatedDrive
 from hal.emulator.drive_state import PowerState

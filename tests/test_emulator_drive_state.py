@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from controller.robot import load_robot
+from controller.model.robot import load_robot
 from hal.emulator.drive_state import (
     Command,
     DriveStateMachine,

@@ -8,7 +8,7 @@ import can
 import numpy as np
 import pytest
 
-from controller.robot import load_robot
+from controller.model.robot import load_robot
 from hal.can.vehicle import VehicleMapping
 from hal.emulator.drive_state import PowerState
 from hal.emulator.emulator import DriveEmulator

@@ -5,7 +5,7 @@ from __future__ import annotations
 import can
 import pytest
 
-from controller.robot import load_robot
+from controller.model.robot import load_robot
 from hal.emulator.drive_state import PowerState
 from hal.emulator.emulator import DriveEmulator
 from hal.emulator.faults import FaultKind

@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from controller.alarms import AlarmCode
+from controller.gateway.grpc.replies import Code
+from controller.gateway.grpc.replies import SpecAState as S
+from controller.model.alarms import AlarmCode
 from controller.rpc import imotion_pb2 as pb
-from controller.service.codes import Code
-from controller.service.codes import SpecAState as S
 from hal.can.backend import CanBackend
 from hal.emulator.emulator import DriveEmulator
 from tests.daemon_support import TestDaemon

@@ -8,11 +8,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from controller.enums import RightLeft, UnitType
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.qp.ik import WholeBodyIK
 from controller.qp.tasks import AxisTask, ControlPointTask
-from controller.redundant_axes import RedundantAxis, axis_value, elbow_axis
 from tests.support import kinematics
 
 DT = 0.002

@@ -9,8 +9,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from controller.enums import RightLeft, UnitType
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.qp.ik import DAMPING, WholeBodyIK
 from controller.qp.limits import JointBox
 from controller.qp.solver import (
@@ -21,7 +22,6 @@ from controller.qp.solver import (
     within_limits,
 )
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
-from controller.redundant_axes import RedundantAxis, axis_value, elbow_axis
 from tests.support import kinematics
 
 DT = 0.002
@@ -202,7 +202,7 @@ def test_configure_and_the_attribute_way_agree():
     frozen = frozen_units(kin_a, [UnitType.LEFT_ARM])
     allowed = {RedundantAxis.LEFT_ELBOW: False}
     a.configure(frozen, allowed)
-    b.box.frozen = frozen.copy()  # as controller.core does
+    b.box.frozen = frozen.copy()  # as controller.control.core does
     b.rows.configure(kin_b, allowed, {}, b.box.frozen)
     a.tasks, b.tasks = arm_tasks(kin_a), arm_tasks(kin_b)
     v = np.zeros(kin_a.nv)

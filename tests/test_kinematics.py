@@ -1,4 +1,4 @@
-"""controller.kinematics: poses, Jacobians, self-motion, frames, offsets, public geometry."""
+"""controller.model.kinematics: poses, Jacobians, self-motion, frames, offsets, public geometry."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from controller.enums import FrameType, LumbarAxis, RightLeft, UnitType
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
 from tests.support import kinematics, random_configuration
 
 FD_STEP = 1e-6

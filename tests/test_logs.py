@@ -1,4 +1,4 @@
-"""controller.daemon.logs: one logfmt line per event on stderr; journald priorities."""
+"""controller.logs: one logfmt line per event on stderr; journald priorities."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from controller.daemon.logs import LogfmtFormatter, setup_logging
+from controller.logs import LogfmtFormatter, setup_logging
 
 
 def _record(msg: str, level: int = logging.INFO, exc: bool = False) -> logging.LogRecord:

@@ -1,4 +1,4 @@
-"""controller.loop: cycle counts, stop, pacing, overruns, statistics. Counts, never times.
+"""controller.control.loop: cycle counts, stop, pacing, overruns, statistics. Counts, never times.
 
 Exact deadline behaviour is checked on a fake clock; the real clock only runs with margins a
 noisy machine cannot break (a no-op step never takes a 20 ms period).
@@ -14,8 +14,8 @@ import time
 import numpy as np
 import pytest
 
-from controller import realtime
-from controller.loop import FixedRateLoop, LoopStats
+from controller.control import realtime
+from controller.control.loop import FixedRateLoop, LoopStats
 
 SUMMARY_KEYS = {
     "cycles",

@@ -1,4 +1,4 @@
-"""controller.model_export: the generated robot.urdf / robot.xml of every shipped robot."""
+"""controller.model.model_export: the generated robot.urdf / robot.xml of every shipped robot."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from config import robot_ids
-from controller.model_export import UNBOUNDED, export_mjcf, export_urdf, num, nums
-from controller.robot import Robot, load_robot
+from controller.model.model_export import UNBOUNDED, export_mjcf, export_urdf, num, nums
+from controller.model.robot import Robot, load_robot
 
 ROBOTS = robot_ids()
 REGENERATE = "run `make models` to regenerate it from model.yaml + profile.yaml"

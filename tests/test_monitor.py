@@ -1,4 +1,4 @@
-"""controller.service.monitor: StreamState limits, slots and sample contents (pa10, ideal).
+"""controller.gateway.grpc.monitor: StreamState limits, slots and sample contents (pa10, ideal).
 
 The linear-move-on-the-line check through StreamState lives in test_service_spec_a.py.
 """
@@ -10,8 +10,8 @@ from collections.abc import Iterator
 import grpc
 import pytest
 
+from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
-from controller.service.codes import SpecAState as S
 from tests.daemon_support import TestDaemon
 
 

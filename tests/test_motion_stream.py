@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.core import CoreState
-from controller.daemon.motion_specs import JointStreamSpec
-from controller.enums import UnitType
+from controller.contract.motion_specs import JointStreamSpec
+from controller.control.core import CoreState
+from controller.model.vocabulary import UnitType
 from controller.motion.stream import JERK_TIME, JointStreamMotion
 from tests.motion_support import make_core
 

@@ -10,8 +10,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from controller.core import CoreState, MotionCore
-from controller.enums import RightLeft, UnitType
+from controller.control.core import CoreState, MotionCore
+from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
@@ -20,7 +21,6 @@ from controller.motion.motions import (
 )
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.reachability import ReachabilityChecker
-from controller.redundant_axes import RedundantAxis, axis_value, elbow_axis
 from tests.motion_support import DT, make_core, run_motion
 
 RIGHT = RightLeft.RIGHT

@@ -1,4 +1,4 @@
-"""Validation of profile.yaml and model.yaml through controller.robot.load_robot."""
+"""Validation of profile.yaml and model.yaml through controller.model.robot.load_robot."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import pytest
 import yaml
 
 from config import ROBOTS_DIR, robot_ids
-from controller.robot import load_robot
-from controller.yaml_source import ConfigError
+from controller.model.robot import load_robot
+from controller.model.yaml_source import ConfigError
 
 SHIPPED = ["pa10", "rh", "seednoid", "smartpal5"]
 

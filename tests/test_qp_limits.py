@@ -8,9 +8,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from controller.enums import UnitType
+from controller.model.redundant_axes import RedundantAxis, available_axes
+from controller.model.vocabulary import UnitType
 from controller.qp.limits import INF, AxisRows, JointBox
-from controller.redundant_axes import RedundantAxis, available_axes
 from tests.support import kinematics
 
 

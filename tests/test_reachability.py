@@ -8,12 +8,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from controller.enums import RightLeft, UnitType
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.reachability import POSITION_TOL, ReachabilityChecker
-from controller.redundant_axes import RedundantAxis
 from tests.support import kinematics
 
 RIGHT, LEFT = RightLeft.RIGHT, RightLeft.LEFT

@@ -1,4 +1,5 @@
-"""controller.realtime: fallbacks warn in one line and report; the real call in a subprocess.
+"""controller.control.realtime: fallbacks warn in one line and report; the real call in a
+subprocess.
 
 No test may leave the pytest process under SCHED_FIFO or with its memory locked: every
 successful path here is either faked or run in a child process.
@@ -18,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from controller import realtime
-from controller.realtime import RealtimeReport, apply_realtime, restore
+from controller.control import realtime
+from controller.control.realtime import RealtimeReport, apply_realtime, restore
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -58,7 +59,7 @@ class FakeLibc:
 
 
 def warnings_of(caplog: pytest.LogCaptureFixture) -> list[logging.LogRecord]:
-    return [r for r in caplog.records if r.name == "controller.realtime"]
+    return [r for r in caplog.records if r.name == "controller.control.realtime"]
 
 
 def assert_clean_one_line_warnings(records: list[logging.LogRecord], count: int) -> None:
@@ -74,7 +75,7 @@ def test_refused_scheduler_and_memory_lock_warn_and_report(monkeypatch, caplog):
     libc = FakeLibc(errno.ENOMEM)
     monkeypatch.setattr(os, "sched_setscheduler", refuse)
     monkeypatch.setattr(realtime, "_libc", lambda: libc)
-    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    caplog.set_level(logging.WARNING, logger="controller.control.realtime")
     report = apply_realtime(priority=70)
     try:
         assert not report.fifo and not report.memory_locked and report.gc_frozen
@@ -101,7 +102,7 @@ def test_missing_libc_and_scheduler_api_are_reported(monkeypatch, caplog):
 
     monkeypatch.delattr(os, "sched_setscheduler")
     monkeypatch.setattr(realtime, "_libc", no_libc)
-    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    caplog.set_level(logging.WARNING, logger="controller.control.realtime")
     report = apply_realtime(freeze_gc=False)
     assert not report.fifo and not report.memory_locked and not report.gc_frozen
     assert "not supported on this platform" in report.messages[0]
@@ -115,7 +116,7 @@ def test_scheduler_os_error_other_than_permission(monkeypatch, caplog):
         raise OSError(errno.EINVAL, "Invalid argument")
 
     monkeypatch.setattr(os, "sched_setscheduler", invalid)
-    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    caplog.set_level(logging.WARNING, logger="controller.control.realtime")
     report = apply_realtime(lock_memory=False, freeze_gc=False)
     assert report.messages == ["real-time: SCHED_FIFO priority 80 not in effect: Invalid argument"]
     assert_clean_one_line_warnings(warnings_of(caplog), 1)
@@ -128,7 +129,7 @@ def test_success_is_reported_and_restored(monkeypatch, caplog):
         os, "sched_setscheduler", lambda pid, pol, p: calls.append((pid, pol, p.sched_priority))
     )
     monkeypatch.setattr(realtime, "_libc", lambda: libc)
-    caplog.set_level(logging.WARNING, logger="controller.realtime")
+    caplog.set_level(logging.WARNING, logger="controller.control.realtime")
     previous = os.sched_getscheduler(0)
     report = apply_realtime(priority=90)
     assert report.fifo and report.memory_locked and report.gc_frozen and report.all_in_effect
@@ -166,7 +167,7 @@ def test_real_call_in_a_child_process(unprivileged: bool):
         pytest.skip("dropping privileges needs root")
     code = (
         "import json, os, gc\n"
-        "from controller.realtime import apply_realtime, restore\n"
+        "from controller.control.realtime import apply_realtime, restore\n"
         # Drop after the imports: the interpreter's files need not be readable by nobody.
         + ("os.setgid(65534); os.setuid(65534)\n" if unprivileged else "")
         + "before = os.sched_getscheduler(0)\n"

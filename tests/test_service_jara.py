@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from controller.gateway.grpc.replies import Code
 from controller.rpc import imotion_pb2 as pb
-from controller.service.codes import Code
 from tests.daemon_support import TestDaemon
 
 OK, VALUE_ERR, STATUS_ERR = Code.OK, Code.VALUE_ERR, Code.STATUS_ERR

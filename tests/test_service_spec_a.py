@@ -18,11 +18,11 @@ import grpc
 import numpy as np
 import pytest
 
-from controller.alarms import AlarmCode
-from controller.enums import RightLeft
+from controller.gateway.grpc.replies import Code
+from controller.gateway.grpc.replies import SpecAState as S
+from controller.model.alarms import AlarmCode
+from controller.model.vocabulary import RightLeft
 from controller.rpc import imotion_pb2 as pb
-from controller.service.codes import Code
-from controller.service.codes import SpecAState as S
 from hal.interface import HardwareFault
 from tests.daemon_support import TestDaemon
 

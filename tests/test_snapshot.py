@@ -1,4 +1,4 @@
-"""controller.daemon.snapshot: the seqlock shared-memory snapshot (writer and readers)."""
+"""controller.contract.snapshot: the seqlock shared-memory snapshot (writer and readers)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controller.daemon import snapshot as snap
-from controller.daemon.snapshot import SnapshotReader, SnapshotWriter
+from controller.contract import snapshot as snap
+from controller.contract.snapshot import SnapshotReader, SnapshotWriter
 
 N = 5
 

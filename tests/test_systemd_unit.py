@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from controller.daemon.config import DaemonConfig, load_config, security_problems
+from controller.contract.config import DaemonConfig, load_config, security_problems
 
 SYSTEMD = Path(__file__).resolve().parents[1] / "config" / "systemd"
 UNIT = SYSTEMD / "imotiond.service"

@@ -95,8 +95,9 @@ from pink.limits import ConfigurationLimit as PinkConfigurationLimit
 from pink.limits import Limit as PinkLimit
 from pink.limits import VelocityLimit as PinkVelocityLimit
 
-from controller.enums import RightLeft, UnitType
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.robot import Robot, load_robot
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.qp.ik import DAMPING, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
 from controller.qp.tasks import (
@@ -106,7 +107,6 @@ from controller.qp.tasks import (
     ControlPointTask,
     PostureTask,
 )
-from controller.robot import Robot, load_robot
 
 #: Time [s] over which the figure-eight and the wobble fade in from rest.
 RAMP = 1.0

@@ -28,9 +28,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 import pinocchio as pin
 
-from controller.core import CoreState, MotionCore
-from controller.enums import RightLeft, UnitType
-from controller.loop import FixedRateLoop
+from controller.control.core import CoreState, MotionCore
+from controller.control.loop import FixedRateLoop
+from controller.model.redundant_axes import axis_value, elbow_axis
+from controller.model.robot import load_robot
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
@@ -40,8 +42,6 @@ from controller.motion.motions import (
 )
 from controller.motion.paths import LinePath
 from controller.motion.reachability import ReachabilityChecker
-from controller.redundant_axes import axis_value, elbow_axis
-from controller.robot import load_robot
 from hal.mujoco_backend import MujocoBackend
 
 RIGHT = RightLeft.RIGHT

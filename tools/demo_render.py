@@ -22,8 +22,8 @@ import pinocchio as pin
 from PIL import Image
 from render_robots import add_frame_marker, caption, home_qpos
 
-from controller.kinematics import Kinematics
-from controller.robot import Robot
+from controller.model.kinematics import Kinematics
+from controller.model.robot import Robot
 
 SEGMENT_RGBA = (0.95, 0.55, 0.05, 1.0)
 UNITS = ("RIGHT_ARM", "LEFT_ARM", "LUMBER", "VEHICLE")

@@ -534,7 +534,7 @@ def write_frames(
 ) -> int:
     from demo_render import FrameRenderer, contact_sheet
 
-    from controller.robot import load_robot
+    from controller.model.robot import load_robot
 
     frames_dir = out / "frames"
     frames_dir.mkdir(parents=True, exist_ok=True)

@@ -14,9 +14,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from config import robot_ids
-from controller.model_export import export_mjcf, export_urdf
-from controller.robot import load_robot
-from controller.yaml_source import ConfigError
+from controller.model.model_export import export_mjcf, export_urdf
+from controller.model.robot import load_robot
+from controller.model.yaml_source import ConfigError
 
 
 def generated_files(robot_id: str) -> dict[Path, str]:

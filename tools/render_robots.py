@@ -5,7 +5,7 @@ Usage: python tools/render_robots.py [--out DIR] [--size W H] [ROBOT_ID ...]
 Writes DIR/<id>.png per robot and DIR/robots.png (all of them on one sheet).
 Markers: control point = sphere with its frame's axes (x red, y green, z blue); original
 frame = the same axes, smaller, without sphere. Control-point poses come from
-controller.kinematics (Pinocchio), so the picture also shows that the two models agree.
+controller.model.kinematics (Pinocchio), so the picture also shows that the two models agree.
 """
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ import pinocchio as pin
 from PIL import Image, ImageDraw
 
 from config import robot_ids
-from controller.kinematics import Kinematics
-from controller.robot import Robot, load_robot
-from controller.yaml_source import ConfigError
+from controller.model.kinematics import Kinematics
+from controller.model.robot import Robot, load_robot
+from controller.model.yaml_source import ConfigError
 
 AXIS_RGBA = ((0.9, 0.1, 0.1, 1.0), (0.1, 0.75, 0.1, 1.0), (0.1, 0.2, 0.95, 1.0))
 

@@ -1,7 +1,7 @@
 """``imotiond``: the motion-controller daemon.
 
 Two processes: this one runs the fixed-rate loop (real-time where allowed) and owns the
-hardware; a gateway child (``controller.service.gateway``) serves gRPC. They meet in a
+hardware; a gateway child (``controller.gateway.process``) serves gRPC. They meet in a
 private runtime directory: the snapshot (shared memory) and the command socket.
 
 Start-up: configuration → hardware up → loop ready → gateway listening → ``READY=1``.
@@ -25,15 +25,15 @@ import time
 from pathlib import Path
 from typing import Any
 
+from controller.contract.channel import CommandServer
+from controller.contract.config import DaemonConfig, load_config, security_problems
+from controller.control.cycle_log import CycleLog
+from controller.control.process import Controller
+from controller.control.realtime import apply_realtime, restore
 from controller.daemon import systemd
-from controller.daemon.channel import CommandServer
-from controller.daemon.config import DaemonConfig, load_config, security_problems
-from controller.daemon.control import Controller
-from controller.daemon.cycle_log import CycleLog
-from controller.daemon.logs import setup_logging
-from controller.realtime import apply_realtime, restore
-from controller.robot import load_robot
-from controller.yaml_source import ConfigError
+from controller.logs import setup_logging
+from controller.model.robot import load_robot
+from controller.model.yaml_source import ConfigError
 from hal.factory import make_hardware
 
 _log = logging.getLogger("imotiond")
@@ -55,7 +55,7 @@ class Daemon:
     """The control side of imotiond, usable in-process (tests) or from :func:`main`."""
 
     def __init__(self, cfg: DaemonConfig):
-        from controller.service.gateway import CONFIG_NAME, JOINTS_NAME, SNAPSHOT_NAME
+        from controller.gateway.process import CONFIG_NAME, JOINTS_NAME, SNAPSHOT_NAME
 
         self.cfg = cfg
         self.runtime = make_runtime_dir(cfg)
@@ -87,7 +87,7 @@ class Daemon:
 
     # ------------------------------------------------------------------ gateway
     def start_gateway_process(self) -> str:
-        cmd = [sys.executable, "-m", "controller.service.gateway", "--runtime", str(self.runtime)]
+        cmd = [sys.executable, "-m", "controller.gateway.process", "--runtime", str(self.runtime)]
         self.gateway = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
         assert self.gateway.stdout is not None
         line = _readline(self.gateway.stdout, GATEWAY_START_TIMEOUT)
@@ -99,7 +99,7 @@ class Daemon:
 
     def start_gateway_thread(self) -> str:
         """The gateway inside this process (comparison only: shares the loop's GIL)."""
-        from controller.service.gateway import start_gateway
+        from controller.gateway.process import start_gateway
 
         self._server, self.address, _ = start_gateway(self.cfg, self.runtime)
         assert self.address is not None

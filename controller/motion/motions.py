@@ -32,12 +32,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from controller.enums import RightLeft, UnitType
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.motion.paths import ArcPath, LinePath, VectorPath
 from controller.motion.profile import PathProfile, ProfileState
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
-from controller.redundant_axes import RedundantAxis, axis_value, elbow_axis
 
 Range = tuple[float, float]
 

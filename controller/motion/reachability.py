@@ -13,7 +13,7 @@ control-point Jacobian (rotation rows scaled by 0.3 m, over the free joints, ins
 space of the held axes) must stay above :data:`MIN_SINGULAR`. Measured on SmartPal V: paths
 that tracked within 0.01 mm stayed above 0.08 m/rad; one that lost 2 mm went down to 0.021.
 
-Runs on its own :class:`~controller.kinematics.Kinematics` (the loop owns the live one).
+Runs on its own :class:`~controller.model.kinematics.Kinematics` (the loop owns the live one).
 """
 
 from __future__ import annotations
@@ -23,14 +23,14 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from controller.enums import RightLeft
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, available_axes, axis_jacobian
+from controller.model.vocabulary import RightLeft
 from controller.motion.motions import IKSetup
 from controller.motion.paths import ArcPath, LinePath
 from controller.qp.limits import BRAKING_SHARE, AxisRows
 from controller.qp.solver import ProxQPSolver
 from controller.qp.tasks import pose_error
-from controller.redundant_axes import RedundantAxis, available_axes, axis_jacobian
 
 #: Accepted residual at every sample: position [m], orientation [rad].
 POSITION_TOL = 1e-4

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from ruckig import ControlInterface, InputParameter, OutputParameter, Result, Ruckig
 
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
 from controller.motion.motions import IKSetup, Motion, _posture
 from controller.qp.tasks import PostureTask
 

@@ -42,11 +42,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, available_axes
 from controller.qp.limits import INF, AxisRows, JointBox
 from controller.qp.solver import DEFAULT_SOLVER, FEASIBILITY_TOL, QPSolver, make_solver
 from controller.qp.tasks import Task
-from controller.redundant_axes import RedundantAxis, available_axes
 
 #: Tikhonov damping λ on the joint velocities.
 DAMPING = 1e-9

@@ -32,9 +32,9 @@ import math
 
 import numpy as np
 
-from controller.enums import UnitType
-from controller.kinematics import Kinematics
-from controller.redundant_axes import RedundantAxis, axis_jacobian, axis_joints, axis_value
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_joints, axis_value
+from controller.model.vocabulary import UnitType
 
 INF = 1e20
 #: Braking distances are planned at this share of the acceleration limit. A joint that brakes

@@ -16,9 +16,9 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from controller.enums import RightLeft
-from controller.kinematics import Kinematics
-from controller.redundant_axes import RedundantAxis, axis_jacobian, axis_value
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_value
+from controller.model.vocabulary import RightLeft
 
 #: Weight of the posture (regularisation) task, relative to weight-1 tasks of any level.
 POSTURE_WEIGHT = 1e-7

@@ -66,8 +66,8 @@ from typing import Any, Protocol
 import can
 import numpy as np
 
-from controller.alarms import AlarmCode
-from controller.robot import Robot
+from controller.model.alarms import AlarmCode
+from controller.model.robot import Robot
 from hal.can import pdo
 from hal.can.busload import classic_frame_bits
 from hal.can.cia402 import DriveMaster, Goal, State, decode

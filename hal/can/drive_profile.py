@@ -19,7 +19,8 @@ under ``vehicle.wheels``; the vehicle's x/y/θ joints are virtual (odometry, see
 :mod:`hal.can.vehicle`) unless the profile lists them as drives itself (a stand-in for a base
 that takes x/y/θ set-points directly).
 
-A broken file raises :class:`~controller.yaml_source.ConfigError` naming file, key and problem.
+A broken file raises :class:`~controller.model.yaml_source.ConfigError` naming file, key and
+problem.
 """
 
 from __future__ import annotations
@@ -31,12 +32,12 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from pydantic import Field, model_validator
 
 from config import CONFIG_DIR
-from controller.model_source import StrictModel
-from controller.yaml_source import ConfigError, load_yaml_model
+from controller.model.model_source import StrictModel
+from controller.model.yaml_source import ConfigError, load_yaml_model
 from hal.can.scaling import Scaling
 
 if TYPE_CHECKING:
-    from controller.robot import Robot
+    from controller.model.robot import Robot
 
 #: The shared object dictionary of imotion's drives (written with the drive emulator).
 DEFAULT_EDS = CONFIG_DIR / "drives" / "imotion_cia402.eds"

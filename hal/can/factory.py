@@ -32,7 +32,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from controller.robot import Robot
+from controller.model.robot import Robot
 from hal.can import busload
 from hal.can.backend import CanBackend
 from hal.can.drive_profile import drives_path, load_drive_profile

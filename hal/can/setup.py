@@ -27,7 +27,7 @@ import can
 import canopen
 from canopen.sdo.exceptions import SdoError
 
-from controller.alarms import AlarmCode
+from controller.model.alarms import AlarmCode
 from hal.can import pdo
 from hal.can.drive_profile import DriveConfig, DriveProfile, eds_path
 from hal.can.supervision import DriveError

@@ -1,7 +1,7 @@
 """Per-cycle supervision of the drives and buses, as :class:`~hal.interface.HardwareFault`.
 
 Every cycle the CAN backend hands over what it decoded; :class:`Supervisor` turns problems
-into faults with imotion's alarm codes (:class:`controller.alarms.AlarmCode`):
+into faults with imotion's alarm codes (:class:`controller.model.alarms.AlarmCode`):
 
 =======  =================  ===========================================================
 code     name               raised when
@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from controller.alarms import AlarmCode
+from controller.model.alarms import AlarmCode
 from hal.can.cia402 import State
 from hal.can.pdo import emcy_name
 from hal.interface import HardwareFault

@@ -37,8 +37,8 @@ from canopen.sdo import SdoVariable
 from rich.console import Console
 from rich.table import Table
 
-from controller.robot import Robot, load_robot
-from controller.yaml_source import ConfigError
+from controller.model.robot import Robot, load_robot
+from controller.model.yaml_source import ConfigError
 from hal.can import busload, pdo
 from hal.can.backend import interpolation_period
 from hal.can.cia402 import DriveMaster, Goal, State, decode

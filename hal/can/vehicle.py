@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from controller.profile import Wheels
+from controller.model.profile import Wheels
 
 
 def wheel_matrix(wheels: Wheels) -> np.ndarray:

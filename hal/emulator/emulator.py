@@ -54,7 +54,7 @@ from typing import Any
 import can
 import numpy as np
 
-from controller.robot import Robot, load_robot
+from controller.model.robot import Robot, load_robot
 from hal.can.drive_profile import DriveProfile, drives_path, eds_path, load_drive_profile
 from hal.can.scaling import wrap_i32
 from hal.emulator.drive import NMT_OPERATIONAL, EmulatedDrive

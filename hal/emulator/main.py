@@ -35,8 +35,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from controller.robot import load_robot
-from controller.yaml_source import ConfigError
+from controller.model.robot import load_robot
+from controller.model.yaml_source import ConfigError
 from hal.can.drive_profile import drives_path, load_drive_profile
 from hal.emulator.bridge import BusBridge
 from hal.emulator.emulator import DriveEmulator

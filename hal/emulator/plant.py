@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from controller.robot import Robot
+from controller.model.robot import Robot
 from hal.can.drive_profile import DriveProfile
 from hal.can.scaling import ScalingArray
 from hal.can.vehicle import VehicleMapping

@@ -23,9 +23,9 @@ import numpy as np
 import pinocchio as pin
 
 from controller.conversions import offset_to_se3
-from controller.elbow import Swivel, swivel
-from controller.enums import FrameType, LumbarAxis, RightLeft, UnitType
-from controller.robot import Robot
+from controller.model.elbow import Swivel, swivel
+from controller.model.robot import Robot
+from controller.model.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
 
 
 class Kinematics:
@@ -233,7 +233,7 @@ class Kinematics:
         return sw, r_base
 
     def elbow_angle(self, side: RightLeft) -> float:
-        """Elbow (swivel) angle [rad]; see :mod:`controller.elbow` for the definition."""
+        """Elbow (swivel) angle [rad]; see :mod:`controller.model.elbow` for the definition."""
         return self._swivel(side)[0].angle
 
     def elbow_offset(self, side: RightLeft) -> float:

@@ -1,6 +1,6 @@
 """Per-cycle loop statistics kept for the whole run and written to a file at exit.
 
-The control loop's own :class:`~controller.loop.LoopStats` keeps one second of cycles (the
+The control loop's own :class:`~controller.control.loop.LoopStats` keeps one second of cycles (the
 snapshot publishes its percentiles). Benchmarks need every cycle: with ``loop.stats_file``
 set, the daemon swaps in a :class:`CycleLog`, which also stores each cycle's wake latency
 and compute time [µs] in preallocated arrays (no allocation in the loop), and
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.loop import LoopStats
+from controller.control.loop import LoopStats
 
 #: Longest run kept in full [s].
 HISTORY_S = 900.0

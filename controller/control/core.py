@@ -22,15 +22,15 @@ import threading
 
 import numpy as np
 
-from controller.alarms import Alarm, AlarmCode, AlarmType
-from controller.enums import RightLeft
-from controller.kinematics import Kinematics
+from controller.model.alarms import Alarm, AlarmCode, AlarmType
+from controller.model.kinematics import Kinematics
+from controller.model.robot import Robot
+from controller.model.vocabulary import RightLeft
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
 from controller.qp.ik import IKResult, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
-from controller.robot import Robot
 from hal.interface import HardwareFault, HardwareInterface, HardwareState, JointCommand
 
 #: A finished motion counts as arrived when every commanded speed is below this [rad/s, m/s].

@@ -1,13 +1,13 @@
 """Generate ``robot.urdf`` (Pinocchio) and ``robot.xml`` (MJCF, MuJoCo) from one source.
 
-Both files are written from the same :class:`~controller.model_source.ModelSource` and
-:class:`~controller.profile.RobotProfile` (for joint limits), so link frames, joint axes and
+Both files are written from the same :class:`~controller.model.model_source.ModelSource` and
+:class:`~controller.model.profile.RobotProfile` (for joint limits), so link frames, joint axes and
 inertias are the same numbers in both. ``tools/gen_models.py`` writes them; a test fails when
 the committed files differ from what this module generates.
 
 Look: each link is drawn as capsules from its origin to its child joints, a short cylinder
 along each revolute axis, and the shapes the model lists. Inertia: the model's mass (or
-:data:`~controller.model_source.DEFAULT_LINK_MASS`) spread as a rod along the link's main
+:data:`~controller.model.model_source.DEFAULT_LINK_MASS`) spread as a rod along the link's main
 segment: a stand-in for real inertia data, which the public sources do not give.
 """
 
@@ -20,8 +20,8 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pinocchio as pin
 
-from controller.model_source import DEFAULT_LINK_MASS, Geom, Joint, ModelSource
-from controller.profile import RobotProfile
+from controller.model.model_source import DEFAULT_LINK_MASS, Geom, Joint, ModelSource
+from controller.model.profile import RobotProfile
 
 #: Limit written to the URDF for unbounded vehicle axes (imotion enforces its own limits).
 UNBOUNDED = 1.0e4

@@ -17,23 +17,23 @@ import threading
 import numpy as np
 import pinocchio as pin
 
-from controller.daemon.motion_specs import (
+from controller.contract.motion_specs import (
     CartesianMoveSpec,
     CPHoldSpec,
     JointMoveSpec,
     MotionSpec,
     VehicleMoveSpec,
 )
-from controller.daemon.snapshot import Snapshot
-from controller.enums import RightLeft
-from controller.kinematics import Kinematics
+from controller.contract.snapshot import Snapshot
+from controller.gateway.grpc.replies import Code, Failure
+from controller.gateway.planning.robot_view import RobotView
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis
+from controller.model.vocabulary import RightLeft
 from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
 from controller.qp.ik import WholeBodyIK
 from controller.qp.tasks import AxisTask, ControlPointTask, Task
-from controller.redundant_axes import RedundantAxis
-from controller.service.codes import Code, Failure
-from controller.service.robot_view import RobotView
 
 Range = tuple[float, float]
 

@@ -19,8 +19,8 @@ import enum
 
 import numpy as np
 
-from controller.enums import LumbarAxis, RightLeft, UnitType
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.vocabulary import LumbarAxis, RightLeft, UnitType
 
 
 class RedundantAxis(enum.Enum):

@@ -1,7 +1,7 @@
 """The control process: the fixed-rate loop, the motion core, the JARA queue, the snapshot.
 
 Everything that touches the motion core runs in the loop thread. Commands arrive from the
-gateway over a Unix socket (:mod:`controller.daemon.channel`); the channel thread only hands
+gateway over a Unix socket (:mod:`controller.contract.channel`); the channel thread only hands
 them to the loop (a lock-free queue) and waits for the answer, which the loop gives at the
 start of its next cycle. So a command never races a cycle and the loop never waits for a
 lock held by a slow request.
@@ -30,13 +30,13 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from controller.alarms import AlarmCode
-from controller.core import CoreError, CoreState, MotionCore
-from controller.daemon import snapshot as snap
-from controller.daemon.motion_specs import JointStreamSpec, MotionSpec
-from controller.enums import FrameType, RightLeft
-from controller.loop import FixedRateLoop
-from controller.robot import Robot
+from controller.contract import snapshot as snap
+from controller.contract.motion_specs import CartesianBox, JointStreamSpec, MotionSpec
+from controller.control.core import CoreError, CoreState, MotionCore
+from controller.control.loop import FixedRateLoop
+from controller.model.alarms import AlarmCode
+from controller.model.robot import Robot
+from controller.model.vocabulary import FrameType, RightLeft
 from hal.interface import HardwareInterface, HardwareState
 
 _log = logging.getLogger("imotiond.control")
@@ -68,15 +68,6 @@ class Request:
     message: str = ""
     #: Set when the caller stopped waiting; the loop then drops the request unexecuted.
     cancelled: bool = False
-
-
-@dataclass
-class CartesianBox:
-    """JARA soft limit: the control point must stay in [lower, upper] (arm frame) [m]."""
-
-    lower: np.ndarray
-    upper: np.ndarray
-    base_offset: np.ndarray  #: 4x4, arm frame in the robot (current) frame
 
 
 class Controller:

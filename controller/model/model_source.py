@@ -2,7 +2,7 @@
 
 One file per robot describes its kinematic tree: links with their inertia and look, joints with
 their placement and axis. ``robot.urdf`` (for Pinocchio) and ``robot.xml`` (MJCF, for MuJoCo)
-are both generated from it by :mod:`controller.model_export`, so the two can never disagree.
+are both generated from it by :mod:`controller.model.model_export`, so the two can never disagree.
 
 Units in the file: lengths [m], angles (``rpy``) [deg], masses [kg]. Every link frame is
 placed by its parent joint's ``xyz``/``rpy``; authored models keep link frames parallel to the
@@ -18,7 +18,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from controller.yaml_source import load_yaml_model
+from controller.model.yaml_source import load_yaml_model
 
 Vec3 = tuple[float, float, float]
 Positive = Annotated[float, Field(gt=0)]
@@ -157,5 +157,8 @@ class ModelSource(StrictModel):
 
 
 def load_model_source(path: Path) -> ModelSource:
-    """Load and validate a ``model.yaml``; raises :class:`~controller.yaml_source.ConfigError`."""
+    """Load and validate a ``model.yaml``.
+
+    Raises :class:`~controller.model.yaml_source.ConfigError`.
+    """
     return load_yaml_model(path, ModelSource)

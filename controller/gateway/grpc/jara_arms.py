@@ -21,16 +21,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from controller.contract.motion_specs import DualCartesianSpec, JointStreamSpec, MotionSpec
+from controller.contract.snapshot import Snapshot
 from controller.conversions import ArgumentError
-from controller.daemon.motion_specs import DualCartesianSpec, JointStreamSpec, MotionSpec
-from controller.daemon.snapshot import Snapshot
-from controller.enums import FrameType, RightLeft, UnitType
-from controller.kinematics import Kinematics
-from controller.redundant_axes import RedundantAxis, elbow_axis
+from controller.gateway.grpc.base import Context, finite_arg, hg_arg
+from controller.gateway.grpc.replies import Code, Failure
+from controller.gateway.grpc.spec_a import relative_pose
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, elbow_axis
+from controller.model.vocabulary import FrameType, RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
-from controller.service.base import Context, finite_arg, hg_arg
-from controller.service.codes import Code, Failure
-from controller.service.spec_a import relative_pose
 
 Box = tuple[np.ndarray, np.ndarray]  # lower, upper [mm] in the arm frame
 #: getSoftLimitCartesian before any setSoftLimitCartesian: no limit, shown as ±10 m.

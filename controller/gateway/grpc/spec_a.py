@@ -16,14 +16,10 @@ import numpy as np
 import pinocchio as pin
 
 from controller import __version__
+from controller.contract.motion_specs import MotionSpec
+from controller.contract.snapshot import Snapshot
 from controller.conversions import ArgumentError
-from controller.daemon.motion_specs import MotionSpec
-from controller.daemon.snapshot import Snapshot
-from controller.enums import FrameType, RightLeft, UnitType
-from controller.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
-from controller.rpc import imotion_pb2 as pb
-from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.service.base import (
+from controller.gateway.grpc.base import (
     Context,
     alarm_msgs,
     car_pos_msg,
@@ -36,7 +32,11 @@ from controller.service.base import (
     side_arg,
     unit_arg,
 )
-from controller.service.codes import Code, Failure, SpecAState, spec_a_state
+from controller.gateway.grpc.replies import Code, Failure, SpecAState, spec_a_state
+from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
+from controller.model.vocabulary import FrameType, RightLeft, UnitType
+from controller.rpc import imotion_pb2 as pb
+from controller.rpc import imotion_pb2_grpc as pb_grpc
 
 Range = tuple[float, float]
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import enum
 
-from controller.daemon.snapshot import Snapshot
+from controller.contract.snapshot import Snapshot
 
 
 class Code(enum.IntEnum):
@@ -79,7 +79,7 @@ JARA_PAUSED = 0x10
 
 def jara_state(s: Snapshot) -> int:
     """JARA_ARM ``getState`` bit set of a snapshot."""
-    from controller.daemon import snapshot as snap
+    from controller.contract import snapshot as snap
 
     bits = 0
     if s.flags & snap.F_SERVO_ON:

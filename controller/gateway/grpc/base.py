@@ -18,16 +18,16 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from controller.contract.channel import ChannelError, CommandClient
+from controller.contract.config import DaemonConfig
+from controller.contract.snapshot import Snapshot
 from controller.conversions import ArgumentError, hg_to_se3, se3_to_hg
-from controller.daemon.channel import ChannelError, CommandClient
-from controller.daemon.config import DaemonConfig
-from controller.daemon.snapshot import Snapshot
-from controller.enums import RightLeft, UnitType
-from controller.robot import Robot
+from controller.gateway.grpc.replies import REFUSAL_CODES, Code, Failure
+from controller.gateway.planning.planner import Planner
+from controller.gateway.planning.robot_view import RobotView
+from controller.model.robot import Robot
+from controller.model.vocabulary import RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
-from controller.service.codes import REFUSAL_CODES, Code, Failure
-from controller.service.planner import Planner
-from controller.service.robot_view import RobotView
 
 _log = logging.getLogger("imotiond.service")
 

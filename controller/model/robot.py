@@ -7,9 +7,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from config import ROBOTS_DIR
-from controller.model_source import ModelSource, load_model_source
-from controller.profile import RobotProfile, load_profile
-from controller.yaml_source import ConfigError, read_yaml
+from controller.model.model_source import ModelSource, load_model_source
+from controller.model.profile import RobotProfile, load_profile
+from controller.model.yaml_source import ConfigError, read_yaml
 
 
 @dataclass(frozen=True)

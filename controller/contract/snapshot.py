@@ -68,7 +68,7 @@ class Snapshot:
     """One consistent copy of the published state."""
 
     cycle: int
-    core_state: str  #: a value of controller.core.CoreState
+    core_state: str  #: a value of controller.control.core.CoreState
     hw_state: str  #: a value of hal.interface.HardwareState
     flags: int
     queue: int

@@ -14,11 +14,11 @@ import time
 
 import grpc
 
-from controller.enums import FrameType, UnitType
+from controller.gateway.grpc.base import Context, alarm_msgs, car_pos_msg
+from controller.gateway.grpc.replies import spec_a_state
+from controller.model.vocabulary import FrameType, UnitType
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.service.base import Context, alarm_msgs, car_pos_msg
-from controller.service.codes import spec_a_state
 
 #: Slowest stream rate [Hz] (slower requests get this).
 MIN_RATE_HZ = 0.01

@@ -16,8 +16,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from controller.enums import RightLeft
-from controller.kinematics import Kinematics
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis
+from controller.model.vocabulary import RightLeft
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
@@ -28,7 +29,6 @@ from controller.motion.motions import (
 )
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.stream import JointStreamMotion
-from controller.redundant_axes import RedundantAxis
 
 Range = tuple[float, float]
 
@@ -171,3 +171,12 @@ class JointStreamSpec(MotionSpec):
             and np.array_equal(motion.joints, self.joints)
             and not motion.finished
         )
+
+
+@dataclass
+class CartesianBox:
+    """JARA soft limit: the control point must stay in [lower, upper] (arm frame) [m]."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    base_offset: np.ndarray  #: 4x4, arm frame in the robot (current) frame

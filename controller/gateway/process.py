@@ -1,6 +1,6 @@
 """The gRPC gateway: every servicer, authentication, TLS, the listening socket.
 
-Runs in its own process (``python -m controller.service.gateway --runtime DIR``, started by
+Runs in its own process (``python -m controller.gateway.process --runtime DIR``, started by
 imotiond) so client load never competes with the control loop for the GIL: it reads the
 loop's state from shared memory and sends commands over the control channel. It can also
 run inside another process (tests) through :func:`start_gateway`.
@@ -20,19 +20,19 @@ from pathlib import Path
 
 import grpc
 
-from controller.daemon.channel import CommandClient
-from controller.daemon.config import DaemonConfig, parse_listen
-from controller.daemon.logs import setup_logging
-from controller.daemon.snapshot import SnapshotReader
-from controller.robot import load_robot
+from controller.contract.channel import CommandClient
+from controller.contract.config import DaemonConfig, parse_listen
+from controller.contract.snapshot import SnapshotReader
+from controller.gateway.grpc.auth import TokenInterceptor
+from controller.gateway.grpc.base import Context
+from controller.gateway.grpc.jara import add_jara_servicers
+from controller.gateway.grpc.monitor import MonitorServicer
+from controller.gateway.grpc.spec_a import IntegratedMotionServicer
+from controller.gateway.planning.planner import Planner
+from controller.gateway.planning.robot_view import RobotView
+from controller.logs import setup_logging
+from controller.model.robot import load_robot
 from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.service.auth import TokenInterceptor
-from controller.service.base import Context
-from controller.service.jara import add_jara_servicers
-from controller.service.monitor import MonitorServicer
-from controller.service.planner import Planner
-from controller.service.robot_view import RobotView
-from controller.service.spec_a import IntegratedMotionServicer
 
 _log = logging.getLogger("imotiond.gateway")
 

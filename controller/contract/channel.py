@@ -16,9 +16,23 @@ import threading
 from multiprocessing import AuthenticationError
 from multiprocessing.connection import Client, Connection, Listener
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
-from controller.daemon.control import Controller
+
+class Answer(Protocol):
+    """The loop's answer to one command."""
+
+    ok: bool
+    value: Any
+    code: str
+    message: str
+
+
+class CommandSink(Protocol):
+    """What the control process offers the channel: run one command, wait for its answer."""
+
+    def submit(self, name: str, timeout: float = ..., **args: Any) -> Answer: ...
+
 
 _log = logging.getLogger("imotiond.channel")
 
@@ -33,7 +47,7 @@ class ChannelError(RuntimeError):
 class CommandServer:
     """Accepts gateway connections and forwards their commands to the loop."""
 
-    def __init__(self, controller: Controller, runtime_dir: Path):
+    def __init__(self, controller: CommandSink, runtime_dir: Path):
         self.controller = controller
         key = secrets.token_bytes(32)
         key_path = Path(runtime_dir) / KEY_NAME

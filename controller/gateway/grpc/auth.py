@@ -14,7 +14,7 @@ from typing import Any
 
 import grpc
 
-from controller.daemon.config import TokensConfig
+from controller.contract.config import TokensConfig
 
 
 def is_read_only(method: str) -> bool:

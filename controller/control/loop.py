@@ -18,7 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from controller import realtime as rt
+from controller.control import realtime as rt
 
 #: The step: ``step(cycle, t)`` with ``t`` the cycle's deadline since the start [s];
 #: returning False stops the loop.
@@ -93,7 +93,7 @@ class LoopStats:
 class FixedRateLoop:
     """Runs ``step(cycle, t)`` at ``rate_hz`` [Hz] on absolute deadlines; see the module doc.
 
-    ``realtime``: :func:`controller.realtime.apply_realtime` in the thread calling
+    ``realtime``: :func:`controller.control.realtime.apply_realtime` in the thread calling
     :meth:`run`, at its start (best effort, warnings when refused), restored when it returns.
     ``spin_us``: busy-wait for the last microseconds before each deadline (costs a CPU).
     ``stats_capacity``: cycles kept by :attr:`stats` (default 10 s worth).

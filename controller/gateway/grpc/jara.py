@@ -3,7 +3,7 @@
 Every request names its ``arm`` (RIGHT default; LEFT on a one-arm robot is VALUE_ERR). Servo
 power, alarms, pause/resume/stop act on the whole robot (one power chain): the arm field of
 those requests is checked but they do not act on one arm alone. Units: mm, deg, s, %.
-Queueing and frames: see :mod:`controller.service.jara_arms`.
+Queueing and frames: see :mod:`controller.gateway.grpc.jara_arms`.
 """
 
 from __future__ import annotations
@@ -13,12 +13,9 @@ import math
 import grpc
 import numpy as np
 
+from controller.contract.motion_specs import CartesianBox
 from controller.conversions import ArgumentError
-from controller.daemon.control import CartesianBox
-from controller.enums import RightLeft, UnitType
-from controller.rpc import imotion_pb2 as pb
-from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.service.base import (
+from controller.gateway.grpc.base import (
     Context,
     alarm_msgs,
     car_pos_msg,
@@ -30,8 +27,11 @@ from controller.service.base import (
     rpc,
     seq_arg,
 )
-from controller.service.codes import Code, Failure, jara_state
-from controller.service.jara_arms import NO_BOX_MM, JaraArms, car_pos_arg
+from controller.gateway.grpc.jara_arms import NO_BOX_MM, JaraArms, car_pos_arg
+from controller.gateway.grpc.replies import Code, Failure, jara_state
+from controller.model.vocabulary import RightLeft, UnitType
+from controller.rpc import imotion_pb2 as pb
+from controller.rpc import imotion_pb2_grpc as pb_grpc
 
 C = "ManipulatorCommon"
 M = "ManipulatorMiddle"
@@ -523,7 +523,7 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
 
 
 def add_jara_servicers(server: grpc.Server, ctx: Context) -> JaraArms:
-    from controller.service.dual import add_dual_servicers
+    from controller.gateway.grpc.dual import add_dual_servicers
 
     arms = JaraArms(ctx)
     pb_grpc.add_ManipulatorCommonServicer_to_server(ManipulatorCommonServicer(ctx, arms), server)

@@ -16,7 +16,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from controller.yaml_source import ConfigError
+from controller.model.yaml_source import ConfigError
 
 DEFAULT_LISTEN = "127.0.0.1:50051"
 

@@ -2,9 +2,9 @@
 
 Units in the file: revolute joints in [deg], [deg/s], [deg/s²]; prismatic joints (vehicle x/y,
 parallel grippers) in [m], [m/s], [m/s²]; offsets ``xyz`` [m] and ``rpy`` [deg]. Inside the
-controller everything is SI: see :class:`controller.robot.Robot`.
+controller everything is SI: see :class:`controller.model.robot.Robot`.
 
-A broken profile raises :class:`~controller.yaml_source.ConfigError` whose every line names
+A broken profile raises :class:`~controller.model.yaml_source.ConfigError` whose every line names
 the file, the key and what is wrong.
 """
 
@@ -16,8 +16,8 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from controller.model_source import ModelSource, StrictModel, Vec3
-from controller.yaml_source import ConfigError, load_yaml_model
+from controller.model.model_source import ModelSource, StrictModel, Vec3
+from controller.model.yaml_source import ConfigError, load_yaml_model
 
 UnitName = Literal["RIGHT_ARM", "LEFT_ARM", "LUMBER", "VEHICLE"]
 SideName = Literal["RIGHT", "LEFT"]
@@ -66,7 +66,7 @@ class ElbowReference(StrictModel):
     ``shoulder``, ``elbow`` and ``wrist`` are links whose origins are the three points.
     ``forward`` and ``down`` are directions in the frame of the arm's base link (the parent
     of its first joint): with the wrist straight along ``forward`` from the shoulder, the elbow
-    angle is 0 when the elbow lies on the ``down`` side. See :mod:`controller.elbow`.
+    angle is 0 when the elbow lies on the ``down`` side. See :mod:`controller.model.elbow`.
     """
 
     shoulder: str

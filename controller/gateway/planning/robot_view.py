@@ -16,10 +16,10 @@ from contextlib import contextmanager
 import numpy as np
 import pinocchio as pin
 
-from controller.daemon.snapshot import Snapshot, SnapshotReader
-from controller.enums import FrameType, RightLeft, UnitType
-from controller.kinematics import Kinematics
-from controller.robot import Robot
+from controller.contract.snapshot import Snapshot, SnapshotReader
+from controller.model.kinematics import Kinematics
+from controller.model.robot import Robot
+from controller.model.vocabulary import FrameType, RightLeft, UnitType
 
 
 class RobotView:
