@@ -14,7 +14,7 @@ import pytest
 
 from controller.control.core import CoreState, MotionCore
 from controller.model.alarms import AlarmCode
-from controller.model.vocabulary import UnitType
+from controller.vocabulary import UnitType
 from controller.motion.motions import JointMotion
 from hal.can import pdo
 from hal.can.backend import Port

@@ -44,7 +44,7 @@ from controller.client import (
 )
 from controller.client.service import Operation, Result, ServiceProxy
 from controller.client.types import ENUM_TYPES, MESSAGE_TYPES, RightLeft, UnitType
-from controller.model import vocabulary as core_enums
+from controller import vocabulary as core_enums
 from controller.rpc import imotion_pb2, imotion_pb2_grpc
 from tests import client_fake
 
@@ -282,7 +282,7 @@ def test_argument_forms(client: Client, fake: client_fake.FakeDaemon) -> None:
     assert r.frame_type == imotion_pb2.TOOL_FRAME
     assert (r.speed.translation, r.accel.rotation) == (50.0, 100.0)
 
-    # keywords by original or proto name, enums from controller.model.vocabulary or numbers
+    # keywords by original or proto name, enums from controller.vocabulary or numbers
     client.integrated.moveUnitAbs(
         unit=core_enums.UnitType.LUMBER, absPos=[1, 2], speed=[3], accel=np.array([4.0])
     )

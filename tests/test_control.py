@@ -20,7 +20,7 @@ from controller.control.core import CoreState
 from controller.control.process import Controller, Refused, Request
 from controller.model.alarms import AlarmCode
 from controller.model.kinematics import Kinematics
-from controller.model.vocabulary import FrameType, RightLeft
+from controller.vocabulary import FrameType, RightLeft
 from controller.motion.motions import Motion
 from hal.ideal_backend import IdealBackend
 from hal.interface import HardwareFault

@@ -9,7 +9,7 @@ import pytest
 
 from controller.control.core import CoreError, CoreState, MotionCore
 from controller.model.alarms import AlarmCode
-from controller.model.vocabulary import RightLeft, UnitType
+from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import JointMotion
 from controller.qp.ik import IKResult
 from hal.ideal_backend import IdealBackend

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.model.elbow import MIN_OFFSET, reference_vector, swivel
-from controller.model.vocabulary import RightLeft
+from controller.vocabulary import RightLeft
 from tests.support import kinematics
 
 F = np.array([1.0, 0.0, 0.0])  # forward

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from controller.model.kinematics import Kinematics
-from controller.model.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
+from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
 from tests.support import kinematics, random_configuration
 
 FD_STEP = 1e-6

@@ -8,7 +8,7 @@ import pytest
 
 from controller.contract.motion_specs import JointStreamSpec
 from controller.control.core import CoreState
-from controller.model.vocabulary import UnitType
+from controller.vocabulary import UnitType
 from controller.motion.stream import JERK_TIME, JointStreamMotion
 from tests.motion_support import make_core
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from controller.control.core import CoreState, MotionCore
 from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
-from controller.model.vocabulary import RightLeft, UnitType
+from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.model.redundant_axes import RedundantAxis, available_axes
-from controller.model.vocabulary import UnitType
+from controller.vocabulary import UnitType
 from controller.qp.limits import INF, AxisRows, JointBox
 from tests.support import kinematics
 

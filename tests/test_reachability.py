@@ -10,7 +10,7 @@ import pytest
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
-from controller.model.vocabulary import RightLeft, UnitType
+from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.reachability import POSITION_TOL, ReachabilityChecker

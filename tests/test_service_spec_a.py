@@ -21,7 +21,7 @@ import pytest
 from controller.gateway.grpc.replies import Code
 from controller.gateway.grpc.replies import SpecAState as S
 from controller.model.alarms import AlarmCode
-from controller.model.vocabulary import RightLeft
+from controller.vocabulary import RightLeft
 from controller.rpc import imotion_pb2 as pb
 from hal.interface import HardwareFault
 from tests.daemon_support import TestDaemon

@@ -97,7 +97,7 @@ from pink.limits import VelocityLimit as PinkVelocityLimit
 
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot, load_robot
-from controller.model.vocabulary import RightLeft, UnitType
+from controller.vocabulary import RightLeft, UnitType
 from controller.qp.ik import DAMPING, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
 from controller.qp.tasks import (

@@ -32,7 +32,7 @@ from controller.control.core import CoreState, MotionCore
 from controller.control.loop import FixedRateLoop
 from controller.model.redundant_axes import axis_value, elbow_axis
 from controller.model.robot import load_robot
-from controller.model.vocabulary import RightLeft, UnitType
+from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,

@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
-from controller.model.vocabulary import RightLeft
+from controller.vocabulary import RightLeft
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,

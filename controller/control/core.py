@@ -25,7 +25,7 @@ import numpy as np
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
-from controller.model.vocabulary import RightLeft
+from controller.vocabulary import RightLeft
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile

@@ -36,7 +36,7 @@ from controller.control.core import CoreError, CoreState, MotionCore
 from controller.control.loop import FixedRateLoop
 from controller.model.alarms import AlarmCode
 from controller.model.robot import Robot
-from controller.model.vocabulary import FrameType, RightLeft
+from controller.vocabulary import FrameType, RightLeft
 from hal.interface import HardwareInterface, HardwareState
 
 _log = logging.getLogger("imotiond.control")

@@ -25,7 +25,7 @@ import pinocchio as pin
 from controller.conversions import offset_to_se3
 from controller.model.elbow import Swivel, swivel
 from controller.model.robot import Robot
-from controller.model.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
+from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
 
 
 class Kinematics:

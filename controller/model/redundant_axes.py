@@ -20,7 +20,7 @@ import enum
 import numpy as np
 
 from controller.model.kinematics import Kinematics
-from controller.model.vocabulary import LumbarAxis, RightLeft, UnitType
+from controller.vocabulary import LumbarAxis, RightLeft, UnitType
 
 
 class RedundantAxis(enum.Enum):

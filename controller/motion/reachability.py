@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, available_axes, axis_jacobian
-from controller.model.vocabulary import RightLeft
+from controller.vocabulary import RightLeft
 from controller.motion.motions import IKSetup
 from controller.motion.paths import ArcPath, LinePath
 from controller.qp.limits import BRAKING_SHARE, AxisRows

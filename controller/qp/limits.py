@@ -34,7 +34,7 @@ import numpy as np
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_joints, axis_value
-from controller.model.vocabulary import UnitType
+from controller.vocabulary import UnitType
 
 INF = 1e20
 #: Braking distances are planned at this share of the acceleration limit. A joint that brakes

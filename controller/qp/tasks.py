@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_value
-from controller.model.vocabulary import RightLeft
+from controller.vocabulary import RightLeft
 
 #: Weight of the posture (regularisation) task, relative to weight-1 tasks of any level.
 POSTURE_WEIGHT = 1e-7

@@ -26,7 +26,7 @@ from controller.gateway.grpc.replies import REFUSAL_CODES, Code, Failure
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
 from controller.model.robot import Robot
-from controller.model.vocabulary import RightLeft, UnitType
+from controller.vocabulary import RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
 
 _log = logging.getLogger("imotiond.service")

@@ -15,7 +15,7 @@ from controller.conversions import ArgumentError
 from controller.gateway.grpc.base import Context, hg_msg, ratio_arg, rpc, seq_arg
 from controller.gateway.grpc.jara_arms import JaraArms, car_pos_arg
 from controller.gateway.grpc.replies import Code, Failure
-from controller.model.vocabulary import FrameType, RightLeft
+from controller.vocabulary import FrameType, RightLeft
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 

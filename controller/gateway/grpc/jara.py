@@ -29,7 +29,7 @@ from controller.gateway.grpc.base import (
 )
 from controller.gateway.grpc.jara_arms import NO_BOX_MM, JaraArms, car_pos_arg
 from controller.gateway.grpc.replies import Code, Failure, jara_state
-from controller.model.vocabulary import RightLeft, UnitType
+from controller.vocabulary import RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 

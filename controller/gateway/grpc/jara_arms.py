@@ -29,7 +29,7 @@ from controller.gateway.grpc.replies import Code, Failure
 from controller.gateway.grpc.spec_a import relative_pose
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, elbow_axis
-from controller.model.vocabulary import FrameType, RightLeft, UnitType
+from controller.vocabulary import FrameType, RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
 
 Box = tuple[np.ndarray, np.ndarray]  # lower, upper [mm] in the arm frame

@@ -16,7 +16,7 @@ import grpc
 
 from controller.gateway.grpc.base import Context, alarm_msgs, car_pos_msg
 from controller.gateway.grpc.replies import spec_a_state
-from controller.model.vocabulary import FrameType, UnitType
+from controller.vocabulary import FrameType, UnitType
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 

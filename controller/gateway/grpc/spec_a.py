@@ -34,7 +34,7 @@ from controller.gateway.grpc.base import (
 )
 from controller.gateway.grpc.replies import Code, Failure, SpecAState, spec_a_state
 from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
-from controller.model.vocabulary import FrameType, RightLeft, UnitType
+from controller.vocabulary import FrameType, RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 

@@ -29,7 +29,7 @@ from controller.gateway.grpc.replies import Code, Failure
 from controller.gateway.planning.robot_view import RobotView
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
-from controller.model.vocabulary import RightLeft
+from controller.vocabulary import RightLeft
 from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
 from controller.qp.ik import WholeBodyIK

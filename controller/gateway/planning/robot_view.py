@@ -19,7 +19,7 @@ import pinocchio as pin
 from controller.contract.snapshot import Snapshot, SnapshotReader
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
-from controller.model.vocabulary import FrameType, RightLeft, UnitType
+from controller.vocabulary import FrameType, RightLeft, UnitType
 
 
 class RobotView:
