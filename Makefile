@@ -20,8 +20,9 @@ run: $(STAMP)  ## the main job: imotiond on SmartPal V in MuJoCo + a scripted se
 test: $(STAMP)  ## the whole test suite (what CI runs)
 	$(PY) -m pytest -q
 
-lint: $(STAMP)
-	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check . && $(VENV)/bin/mypy
+lint: $(STAMP)  ## ruff, ruff format, mypy, import-linter (layers, no cycles)
+	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check . && $(VENV)/bin/mypy \
+		&& $(VENV)/bin/lint-imports --no-logo
 
 models: $(STAMP)  ## regenerate robot.urdf / robot.xml from model.yaml + profile.yaml
 	$(PY) tools/gen_models.py

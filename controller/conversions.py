@@ -13,14 +13,12 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from controller.errors import ArgumentError
+
 #: Tolerance on ``RᵀR = I`` (max abs entry) and ``det R = 1`` for an HgMatrix rotation block.
 ORTHONORMAL_TOL = 1e-6
 
 MM_PER_M = 1000.0
-
-
-class ArgumentError(ValueError):
-    """A value given at the API edge is invalid; the message names which and why."""
 
 
 def finite_array(value: object, name: str, shape: tuple[int, ...] | None = None) -> np.ndarray:

@@ -14,8 +14,8 @@ import pytest
 
 from controller.control.core import CoreState, MotionCore
 from controller.model.alarms import AlarmCode
-from controller.vocabulary import UnitType
 from controller.motion.motions import JointMotion
+from controller.vocabulary import UnitType
 from hal.can import pdo
 from hal.can.backend import Port
 from hal.can.cia402 import CW_ENABLE_OPERATION

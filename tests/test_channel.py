@@ -12,6 +12,7 @@ import pytest
 
 from controller.contract.channel import KEY_NAME, ChannelError, CommandClient, CommandServer
 from controller.control.process import Request
+from controller.vocabulary import ReturnCode
 
 
 class FakeController:
@@ -24,7 +25,7 @@ class FakeController:
         self.calls.append((name, args))
         request = Request(name, args)
         if name == "refuse":
-            request.code, request.message = "STATUS_ERR", "not now"
+            request.code, request.message = ReturnCode.STATUS_ERR, "not now"
         else:
             request.ok, request.value = True, {"echo": args}
         request.done.set()
@@ -58,7 +59,7 @@ def test_calls_and_refusals(runtime: Path, server):
     client = CommandClient(runtime)
     try:
         assert client.call("echo", x=1, y=[2.0]) == (True, {"echo": {"x": 1, "y": [2.0]}}, "")
-        assert client.call("refuse") == (False, "STATUS_ERR", "not now")
+        assert client.call("refuse") == (False, ReturnCode.STATUS_ERR, "not now")
     finally:
         client.close()
     assert [c[0] for c in fake.calls] == ["echo", "refuse"]

@@ -20,6 +20,7 @@ import pytest
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
+from controller import vocabulary as core_enums
 from controller.client import (
     LEFT,
     RIGHT,
@@ -44,7 +45,6 @@ from controller.client import (
 )
 from controller.client.service import Operation, Result, ServiceProxy
 from controller.client.types import ENUM_TYPES, MESSAGE_TYPES, RightLeft, UnitType
-from controller import vocabulary as core_enums
 from controller.rpc import imotion_pb2, imotion_pb2_grpc
 from tests import client_fake
 

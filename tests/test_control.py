@@ -17,11 +17,12 @@ import pytest
 from controller.contract import snapshot as snap
 from controller.contract.motion_specs import CartesianBox, JointMoveSpec
 from controller.control.core import CoreState
-from controller.control.process import Controller, Refused, Request
+from controller.control.process import Controller, Request
+from controller.errors import Refused
 from controller.model.alarms import AlarmCode
 from controller.model.kinematics import Kinematics
-from controller.vocabulary import FrameType, RightLeft
 from controller.motion.motions import Motion
+from controller.vocabulary import FrameType, ReturnCode, RightLeft
 from hal.ideal_backend import IdealBackend
 from hal.interface import HardwareFault
 from tests.support import robot
@@ -77,7 +78,7 @@ def j1_move(c: Controller, target: float, speed: float = 1.0, planned: bool = Tr
 def refused(fn, *args, **kw) -> Refused:  # type: ignore[no-untyped-def]
     with pytest.raises(Refused) as err:
         fn(*args, **kw)
-    assert err.value.message
+    assert err.value.comment
     return err.value
 
 
@@ -91,26 +92,26 @@ def ready(c: Controller) -> Controller:
 # ----------------------------------------------------------------------------- refusals
 def test_refusal_codes_by_state(ctl: Controller):
     step(ctl)
-    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "NOT_SV_ON_ERR"
-    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == "NOT_SV_ON_ERR"
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == ReturnCode.NOT_SV_ON_ERR
+    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == ReturnCode.NOT_SV_ON_ERR
     ready(ctl)
     assert ctl.cmd_start(j1_move(ctl, 0.5, speed=0.2)) == "started"
     step(ctl)
     # Spec A never queues: busy is STATUS_ERR
-    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "STATUS_ERR"
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == ReturnCode.STATUS_ERR
     ctl.cmd_pause()
     step(ctl, 100)
     assert ctl.core.state == CoreState.PAUSED
-    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "STATUS_ERR"
-    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == "STATUS_ERR"
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == ReturnCode.STATUS_ERR
+    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == ReturnCode.STATUS_ERR
     ctl.cmd_abort()
     ctl.hw.inject_fault(HardwareFault(int(AlarmCode.DRIVE_FAULT), "J3", "test"))  # type: ignore[attr-defined]
     step(ctl)
     assert ctl.core.state == CoreState.ALARM
-    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == "STATUS_ERR"
-    assert refused(ctl.cmd_start, j1_move(ctl, 0.1), queued=True).code == "STATUS_ERR"
-    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == "STATUS_ERR"
-    assert refused(ctl.cmd_servo_on).code == "NG"
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == ReturnCode.STATUS_ERR
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1), queued=True).code == ReturnCode.STATUS_ERR
+    assert refused(ctl.cmd_gripper, RightLeft.RIGHT, 1.0).code == ReturnCode.STATUS_ERR
+    assert refused(ctl.cmd_servo_on).code == ReturnCode.NG
     ctl.cmd_clear_alarms()
     step(ctl)
     ready(ctl)  # a persisting drive fault does not block recovery after clearAlarms
@@ -122,7 +123,7 @@ def test_a_plan_from_an_old_state_is_refused(ctl: Controller):
     ctl.cmd_start(j1_move(ctl, 0.2, speed=2.0))
     run_until_idle(ctl)
     err = refused(ctl.cmd_start, stale)
-    assert err.code == "STATUS_ERR" and "send it again" in err.message
+    assert err.code == ReturnCode.STATUS_ERR and "send it again" in err.comment
 
 
 def test_unknown_and_failing_commands_answer_ng(ctl: Controller):
@@ -138,9 +139,9 @@ def test_unknown_and_failing_commands_answer_ng(ctl: Controller):
     while thread.is_alive():
         step(ctl)
     unknown, failing, status = answers
-    assert not unknown.ok and unknown.code == "NG" and "no_such_command" in unknown.message
-    assert not failing.ok and failing.code == "NG" and "gripper failed" in failing.message
-    assert status.ok and status.value == {"state": "servo off", "queue": 0}
+    assert not unknown.ok and unknown.code == ReturnCode.NG and "no_such_command" in unknown.message
+    assert not failing.ok and failing.code == ReturnCode.NG and "gripper failed" in failing.message
+    assert status.ok and status.value == {"state": CoreState.SERVO_OFF, "queue": 0}
 
 
 def test_an_answer_comes_after_the_snapshot_shows_it(ctl: Controller):
@@ -165,7 +166,7 @@ def test_an_answer_comes_after_the_snapshot_shows_it(ctl: Controller):
 
 def test_submit_times_out_without_a_loop(ctl: Controller):
     request = ctl.submit("status", timeout=0.05)
-    assert not request.ok and request.code == "NG" and "did not answer" in request.message
+    assert not request.ok and request.code == ReturnCode.NG and "did not answer" in request.message
 
 
 # ----------------------------------------------------------------------------- queue
@@ -179,7 +180,7 @@ def test_queue_depth_and_order(ctl: Controller):
     s = read(ctl)
     assert s.queue == 2 and s.queue_depth == 2 and s.flags & snap.F_QUEUE_FULL
     err = refused(ctl.cmd_start, j1_move(ctl, 0.4, planned=False), queued=True)
-    assert err.code == "FULL_MOTION_QUEUE_ERR" and "2 waiting" in err.message
+    assert err.code == ReturnCode.FULL_MOTION_QUEUE_ERR and "2 waiting" in err.comment
     run_until_idle(ctl)
     assert ctl.core.kin.q[0] == pytest.approx(targets[-1], abs=1e-6)
     s = read(ctl)
@@ -226,7 +227,7 @@ def test_stop_from_idle_pause_goes_ready(ctl: Controller):
     ready(ctl)
     ctl.cmd_pause()
     step(ctl)
-    assert read(ctl).core_state == "paused" and read(ctl).flags & snap.F_PAUSED
+    assert read(ctl).core_state == CoreState.PAUSED and read(ctl).flags & snap.F_PAUSED
     ctl.cmd_stop()
     step(ctl)
     assert ctl.core.state == CoreState.READY
@@ -236,21 +237,21 @@ def test_settings_refused_while_moving(ctl: Controller):
     ready(ctl)
     ctl.cmd_start(j1_move(ctl, 0.5, speed=0.5))
     step(ctl)
-    assert refused(ctl.cmd_reset_original_frame).code == "STATUS_ERR"
+    assert refused(ctl.cmd_reset_original_frame).code == ReturnCode.STATUS_ERR
     assert refused(ctl.cmd_set_control_point_offset, RightLeft.RIGHT, np.eye(4)).code == (
-        "STATUS_ERR"
+        ReturnCode.STATUS_ERR
     )
-    assert refused(ctl.cmd_set_cartesian_box, RightLeft.RIGHT, None).code == "STATUS_ERR"
+    assert refused(ctl.cmd_set_cartesian_box, RightLeft.RIGHT, None).code == ReturnCode.STATUS_ERR
     idx = np.array([0])
     limits = (np.array([-1.0]), np.array([1.0]))
-    assert refused(ctl.cmd_set_joint_limits, idx, *limits).code == "STATUS_ERR"
+    assert refused(ctl.cmd_set_joint_limits, idx, *limits).code == ReturnCode.STATUS_ERR
 
 
 def test_joint_limits(ctl: Controller):
     ready(ctl)
     idx = np.array([0, 1])
     err = refused(ctl.cmd_set_joint_limits, idx, np.array([0.1, -1.0]), np.array([1.0, 1.0]))
-    assert err.code == "VALUE_ERR" and "J1" in err.message
+    assert err.code == ReturnCode.VALUE_ERR and "J1" in err.comment
     ctl.cmd_set_joint_limits(idx, np.array([-0.2, -1.0]), np.array([0.2, 1.0]))
     box = ctl.core.ik.box
     assert box.q_min[0] == -0.2 and box.q_max[0] == 0.2 and box.q_max[1] == 1.0

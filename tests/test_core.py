@@ -7,11 +7,11 @@ import threading
 import numpy as np
 import pytest
 
-from controller.control.core import CoreError, CoreState, MotionCore
+from controller.control.core import CoreError, MotionCore
 from controller.model.alarms import AlarmCode
-from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import JointMotion
 from controller.qp.ik import IKResult
+from controller.vocabulary import CoreState, RightLeft, UnitType
 from hal.ideal_backend import IdealBackend
 from hal.interface import HardwareFault, HardwareState
 from tests.motion_support import DT, make_core

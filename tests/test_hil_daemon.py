@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import Code
 from controller.gateway.grpc.replies import SpecAState as S
 from controller.model.alarms import AlarmCode
 from controller.rpc import imotion_pb2 as pb
+from controller.vocabulary import ReturnCode
 from hal.can.backend import CanBackend
 from hal.emulator.emulator import DriveEmulator
 from tests.daemon_support import TestDaemon
@@ -33,7 +33,7 @@ CART_ACCEL = pb.CartesianAccel(translation=400.0, rotation=100.0)  # mm/s², deg
 
 
 def ok(response: Any) -> Any:
-    assert response.return_id.id == Code.OK, response.return_id.comment
+    assert response.return_id.id == ReturnCode.OK, response.return_id.comment
     return response
 
 

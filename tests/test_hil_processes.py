@@ -26,10 +26,10 @@ import grpc
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import Code
 from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import ReturnCode
 
 ROOT = Path(__file__).resolve().parents[1]
 RATE_HZ = 100
@@ -66,7 +66,7 @@ def stop(process: subprocess.Popen[Any]) -> int | None:
 
 
 def ok(response: Any) -> Any:
-    assert response.return_id.id == Code.OK, response.return_id.comment
+    assert response.return_id.id == ReturnCode.OK, response.return_id.comment
     return response
 
 

@@ -10,9 +10,9 @@ import pytest
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
-from controller.vocabulary import RightLeft, UnitType
 from controller.qp.ik import WholeBodyIK
 from controller.qp.tasks import AxisTask, ControlPointTask
+from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
 
 DT = 0.002

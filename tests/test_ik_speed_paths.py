@@ -11,7 +11,6 @@ import pytest
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
-from controller.vocabulary import RightLeft, UnitType
 from controller.qp.ik import DAMPING, WholeBodyIK
 from controller.qp.limits import JointBox
 from controller.qp.solver import (
@@ -22,6 +21,7 @@ from controller.qp.solver import (
     within_limits,
 )
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
+from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
 
 DT = 0.002

@@ -8,8 +8,8 @@ import pytest
 
 from controller.contract.motion_specs import JointStreamSpec
 from controller.control.core import CoreState
-from controller.vocabulary import UnitType
 from controller.motion.stream import JERK_TIME, JointStreamMotion
+from controller.vocabulary import UnitType
 from tests.motion_support import make_core
 
 PERIOD = 0.02  # the client's command cycle [s]

@@ -12,7 +12,6 @@ from hypothesis import strategies as st
 
 from controller.control.core import CoreState, MotionCore
 from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
-from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
@@ -21,6 +20,7 @@ from controller.motion.motions import (
 )
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.reachability import ReachabilityChecker
+from controller.vocabulary import RightLeft, UnitType
 from tests.motion_support import DT, make_core, run_motion
 
 RIGHT = RightLeft.RIGHT

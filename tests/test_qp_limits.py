@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.model.redundant_axes import RedundantAxis, available_axes
-from controller.vocabulary import UnitType
 from controller.qp.limits import INF, AxisRows, JointBox
+from controller.vocabulary import UnitType
 from tests.support import kinematics
 
 

@@ -10,10 +10,10 @@ import pytest
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
-from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.reachability import POSITION_TOL, ReachabilityChecker
+from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
 
 RIGHT, LEFT = RightLeft.RIGHT, RightLeft.LEFT

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import Code
 from controller.rpc import imotion_pb2 as pb
+from controller.vocabulary import ReturnCode
 from tests.daemon_support import TestDaemon
 
 
@@ -31,7 +31,7 @@ def code(reply):
 @pytest.fixture(scope="module")
 def d():
     daemon = TestDaemon("smartpal5")
-    assert code(daemon.dual_common.ServoONArm(DC("ServoONArm"))) == Code.OK
+    assert code(daemon.dual_common.ServoONArm(DC("ServoONArm"))) == ReturnCode.OK
     yield daemon
     daemon.close()
 
@@ -59,7 +59,7 @@ def test_dual_linear_rel_moves_both_and_they_finish_together(d):
                 DM("MoveLinearCartesianRel", r_arm=car(z=30), l_arm=car(z=15))
             )
         )
-        == Code.OK
+        == ReturnCode.OK
     )
     # sample mid-way: both arms are moving at the same time, in proportion
     mid = None
@@ -96,7 +96,7 @@ def test_dual_linear_abs_and_ptp(d):
                 DM("MoveLinearCartesianAbs", r_arm=target[0], l_arm=target[1])
             )
         )
-        == Code.OK
+        == ReturnCode.OK
     )
     assert d.wait_idle()
     assert (
@@ -105,7 +105,7 @@ def test_dual_linear_abs_and_ptp(d):
                 DM("MovePTPCartesianRel", r_arm=car(x=10), l_arm=car(x=10))
             )
         )
-        == Code.OK
+        == ReturnCode.OK
     )
     assert d.wait_idle()
     end = positions(d)
@@ -118,7 +118,7 @@ def test_dual_linear_abs_and_ptp(d):
                 DM("MovePTPCartesianAbs", r_arm=target[0], l_arm=target[1])
             )
         )
-        == Code.OK
+        == ReturnCode.OK
     )
     assert d.wait_idle()
 
@@ -128,16 +128,19 @@ def test_dual_ptp_joint(d):
     rel_r, rel_l = [-3.0] + [0.0] * 6, [3.0] + [0.0] * 6
     assert (
         code(d.dual_middle.MovePTPJointRel(DM("MovePTPJointRel", r_arm=rel_r, l_arm=rel_l)))
-        == Code.OK
+        == ReturnCode.OK
     )
     assert d.wait_idle()
     np.testing.assert_allclose(arm_joints(d, 0)[:7], r0 + rel_r, atol=1e-3)
     np.testing.assert_allclose(arm_joints(d, 1)[:7], l0 + rel_l, atol=1e-3)
-    assert code(d.dual_middle.MovePTPJointAbs(DM("MovePTPJointAbs", r_arm=r0, l_arm=l0))) == Code.OK
+    assert (
+        code(d.dual_middle.MovePTPJointAbs(DM("MovePTPJointAbs", r_arm=r0, l_arm=l0)))
+        == ReturnCode.OK
+    )
     assert d.wait_idle()
     np.testing.assert_allclose(arm_joints(d, 0)[:7], r0, atol=1e-3)
     r = d.dual_middle.MovePTPJointAbs(DM("MovePTPJointAbs", r_arm=r0[:3], l_arm=l0))
-    assert code(r) == Code.VALUE_ERR and "rArm" in r.return_id.comment
+    assert code(r) == ReturnCode.VALUE_ERR and "rArm" in r.return_id.comment
 
 
 def test_relative_position_is_left_in_right_frame(d):
@@ -152,31 +155,31 @@ def test_relative_position_is_left_in_right_frame(d):
 
 def test_grippers_and_hands(d):
     dm, dc = d.dual_middle, d.dual_common
-    assert code(dm.MoveGripper(DM("MoveGripper", r_arm=30, l_arm=60))) == Code.OK
+    assert code(dm.MoveGripper(DM("MoveGripper", r_arm=30, l_arm=60))) == ReturnCode.OK
     assert d.wait_idle()
     got = [d.spec_a.GetGripperPos(pb.GetGripperPosRequest(type=a)).angle_ratio for a in (0, 1)]
     assert got == [30, 60]
-    assert code(dm.CloseGripper(DM("CloseGripper", r_arm=1, l_arm=0))) == Code.OK
-    assert code(dm.OpenGripper(DM("OpenGripper", r_arm=0, l_arm=1))) == Code.OK
+    assert code(dm.CloseGripper(DM("CloseGripper", r_arm=1, l_arm=0))) == ReturnCode.OK
+    assert code(dm.OpenGripper(DM("OpenGripper", r_arm=0, l_arm=1))) == ReturnCode.OK
     assert d.wait_idle()
     got = [d.spec_a.GetGripperPos(pb.GetGripperPosRequest(type=a)).angle_ratio for a in (0, 1)]
     assert got == [0, 100]
-    assert code(dm.CloseGripper(DM("CloseGripper", r_arm=2, l_arm=0))) == Code.VALUE_ERR
-    assert code(dm.MoveGripper(DM("MoveGripper", r_arm=101, l_arm=0))) == Code.VALUE_ERR
-    assert code(dc.ServoOFFHand(DC("ServoOFFHand"))) == Code.OK
-    assert code(dm.OpenGripper(DM("OpenGripper", r_arm=1, l_arm=1))) == Code.STATUS_ERR
-    assert code(dc.ServoONHand(DC("ServoONHand"))) == Code.OK
-    assert code(dm.OpenGripper(DM("OpenGripper", r_arm=1, l_arm=1))) == Code.OK
+    assert code(dm.CloseGripper(DM("CloseGripper", r_arm=2, l_arm=0))) == ReturnCode.VALUE_ERR
+    assert code(dm.MoveGripper(DM("MoveGripper", r_arm=101, l_arm=0))) == ReturnCode.VALUE_ERR
+    assert code(dc.ServoOFFHand(DC("ServoOFFHand"))) == ReturnCode.OK
+    assert code(dm.OpenGripper(DM("OpenGripper", r_arm=1, l_arm=1))) == ReturnCode.STATUS_ERR
+    assert code(dc.ServoONHand(DC("ServoONHand"))) == ReturnCode.OK
+    assert code(dm.OpenGripper(DM("OpenGripper", r_arm=1, l_arm=1))) == ReturnCode.OK
     assert d.wait_idle()
 
 
 def test_servo_arm_off_and_on(d):
-    assert code(d.dual_common.ServoOFFArm(DC("ServoOFFArm"))) == Code.OK
+    assert code(d.dual_common.ServoOFFArm(DC("ServoOFFArm"))) == ReturnCode.OK
     assert not d.spec_a.IsServoOn(pb.IsServoOnRequest()).is_servo_on
     r = d.dual_middle.MovePTPJointRel(DM("MovePTPJointRel", r_arm=[1] + [0] * 6, l_arm=[0] * 7))
-    assert code(r) == Code.NOT_SV_ON_ERR
-    assert code(d.dual_common.ServoONHand(DC("ServoONHand"))) == Code.STATUS_ERR
-    assert code(d.dual_common.ServoONArm(DC("ServoONArm"))) == Code.OK
+    assert code(r) == ReturnCode.NOT_SV_ON_ERR
+    assert code(d.dual_common.ServoONHand(DC("ServoONHand"))) == ReturnCode.STATUS_ERR
+    assert code(d.dual_common.ServoONArm(DC("ServoONArm"))) == ReturnCode.OK
     assert d.spec_a.IsServoOn(pb.IsServoOnRequest()).is_servo_on
 
 
@@ -185,7 +188,7 @@ def test_unreachable_dual_target_moves_nothing(d):
     r = d.dual_middle.MoveLinearCartesianRel(
         DM("MoveLinearCartesianRel", r_arm=car(z=3000), l_arm=car())
     )
-    assert code(r) == Code.VALUE_ERR  # JARA has no CANNOT_REACH_TARGET_ERR
+    assert code(r) == ReturnCode.VALUE_ERR  # JARA has no CANNOT_REACH_TARGET_ERR
     assert "reach" in r.return_id.comment
     after = positions(d)
     np.testing.assert_allclose(after[0], before[0], atol=1e-9)

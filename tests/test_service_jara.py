@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import Code
 from controller.rpc import imotion_pb2 as pb
+from controller.vocabulary import ReturnCode
 from tests.daemon_support import TestDaemon
 
-OK, VALUE_ERR, STATUS_ERR = Code.OK, Code.VALUE_ERR, Code.STATUS_ERR
+OK, VALUE_ERR, STATUS_ERR = ReturnCode.OK, ReturnCode.VALUE_ERR, ReturnCode.STATUS_ERR
 
 
 def hg(x=0.0, y=0.0, z=0.0, rot=None):
@@ -80,7 +80,7 @@ def test_servo_bits_and_alarm_codes(d):
     assert code(d.common.ServoOFF(C("ServoOFF"))) == OK
     assert d.common.GetState(C("GetState")).state & 0x01 == 0
     r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[1] + [0] * 6))
-    assert code(r) == Code.NOT_SV_ON_ERR
+    assert code(r) == ReturnCode.NOT_SV_ON_ERR
     assert code(d.common.ServoON(C("ServoON"))) == OK
     assert code(d.common.ClearAlarms(C("ClearAlarms"))) == OK
     assert list(d.common.GetActiveAlarm(C("GetActiveAlarm")).alarms) == []
@@ -93,7 +93,7 @@ def test_queue_runs_in_order_and_reports_full(d):
         for _ in range(5)
     ]
     assert codes[:4] == [OK] * 4
-    assert codes[4] == Code.FULL_MOTION_QUEUE_ERR
+    assert codes[4] == ReturnCode.FULL_MOTION_QUEUE_ERR
     assert d.common.GetState(C("GetState")).state & 0x02
     assert d.wait_idle()
     end, _ = pose(d)
@@ -394,7 +394,7 @@ def test_alarm_state_bit_and_status_err(d):
     assert code(r) == STATUS_ERR
     alarms = d.common.GetActiveAlarm(C("GetActiveAlarm")).alarms
     assert alarms[0].code == 0x400 and alarms[0].module_name == ""
-    assert code(d.common.ServoON(C("ServoON"))) == Code.NG
+    assert code(d.common.ServoON(C("ServoON"))) == ReturnCode.NG
     d.common.ClearAlarms(C("ClearAlarms"))
     assert code(d.common.ServoON(C("ServoON"))) == OK
 

@@ -18,11 +18,10 @@ import grpc
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import Code
 from controller.gateway.grpc.replies import SpecAState as S
 from controller.model.alarms import AlarmCode
-from controller.vocabulary import RightLeft
 from controller.rpc import imotion_pb2 as pb
+from controller.vocabulary import ReturnCode, RightLeft
 from hal.interface import HardwareFault
 from tests.daemon_support import TestDaemon
 
@@ -60,7 +59,7 @@ def code(response: Any) -> int:
 
 
 def ok(response: Any) -> Any:
-    assert response.return_id.id == Code.OK, response.return_id.comment
+    assert response.return_id.id == ReturnCode.OK, response.return_id.comment
     return response
 
 
@@ -266,17 +265,17 @@ def motion_ops(d: TestDaemon) -> dict[str, Any]:
     }
 
 
-def expected_code(op: str, state: S) -> Code:
+def expected_code(op: str, state: S) -> ReturnCode:
     """interfaces.md: motion only from Ready; Spec A never queues; NOT_SV_ON_ERR where the
     original lists it. Grippers are their own unit: they may move beside a running motion
     (Busy) but not while paused."""
     if state == S.READY:
-        return Code.OK
+        return ReturnCode.OK
     if state in (S.UNPOWERED, S.SERVO_OFF):
-        return Code.NOT_SV_ON_ERR if op in SV_ON_LISTED else Code.STATUS_ERR
+        return ReturnCode.NOT_SV_ON_ERR if op in SV_ON_LISTED else ReturnCode.STATUS_ERR
     if state == S.BUSY and op in GRIPPER_OPS:
-        return Code.OK
-    return Code.STATUS_ERR
+        return ReturnCode.OK
+    return ReturnCode.STATUS_ERR
 
 
 def codes_in_state(d: TestDaemon, state: S) -> dict[str, int]:
@@ -287,7 +286,7 @@ def codes_in_state(d: TestDaemon, state: S) -> dict[str, int]:
         before = measured(d)
         got[name] = code(getattr(d.spec_a, name)(request))
         if state == S.READY:
-            if got[name] == Code.OK and name != "CloseGripper":  # closed already at home
+            if got[name] == ReturnCode.OK and name != "CloseGripper":  # closed already at home
                 assert moving(d), f"{name} accepted but nothing moves"
             ok(d.spec_a.Abort(pb.AbortRequest()))
             wait_state(d, S.READY)
@@ -350,7 +349,7 @@ def test_always_ok_operations_in_every_state(d: TestDaemon):
     for state in (S.SERVO_OFF, S.ALARM):
         enter(d, state)
         for name, request in always.items():
-            assert code(getattr(d.spec_a, name)(request)) == Code.OK, (name, state)
+            assert code(getattr(d.spec_a, name)(request)) == ReturnCode.OK, (name, state)
         assert d.state() == state
     ok(d.spec_a.ClearAlarms(pb.ClearAlarmsRequest()))
 
@@ -365,7 +364,7 @@ def test_alarm_is_reported_and_cleared(d: TestDaemon):
     assert alarms[0].module_name == "r_arm_j3" and "overcurrent" in alarms[0].description
     assert alarms[0].type == pb.FAULT
     assert not d.spec_a.IsServoOn(pb.IsServoOnRequest()).is_servo_on
-    assert code(d.spec_a.ServoOn(pb.ServoOnRequest())) == Code.NG
+    assert code(d.spec_a.ServoOn(pb.ServoOnRequest())) == ReturnCode.NG
     # clearAlarms resets the drive fault; the drives stay off until servoOn.
     ok(d.spec_a.ClearAlarms(pb.ClearAlarmsRequest()))
     wait_cycles(d)
@@ -697,7 +696,7 @@ SP5_CASES: list[Case] = [
 def _check_rejected(d: TestDaemon, name: str, request: Any, fragment: str) -> None:
     before = measured(d)
     reply = getattr(d.spec_a, name)(request)
-    assert code(reply) == Code.VALUE_ERR, reply.return_id
+    assert code(reply) == ReturnCode.VALUE_ERR, reply.return_id
     comment = reply.return_id.comment
     assert fragment in comment, comment
     assert d.state() == S.READY
@@ -837,7 +836,7 @@ def test_unreachable_targets_fail_before_motion(d: TestDaemon):
         ),
     ):
         reply = getattr(d.spec_a, name)(request)
-        assert code(reply) == Code.CANNOT_REACH_TARGET_ERR, (name, reply.return_id)
+        assert code(reply) == ReturnCode.CANNOT_REACH_TARGET_ERR, (name, reply.return_id)
         assert reply.return_id.comment
         assert d.state() == S.READY
     assert_still(d, before)
@@ -1013,7 +1012,7 @@ def test_cp_hold_target_the_hand_cannot_follow(d: TestDaemon):
     )
     before = joints(d, pb.VEHICLE)
     reply = d.spec_a.MoveCPHoldRel(request)
-    assert code(reply) == Code.CANNOT_REACH_TARGET_ERR, reply.return_id
+    assert code(reply) == ReturnCode.CANNOT_REACH_TARGET_ERR, reply.return_id
     assert "vehicleX" in reply.return_id.comment and "short" in reply.return_id.comment
     assert not moving(d)
     np.testing.assert_allclose(joints(d, pb.VEHICLE), before, atol=1e-9)
@@ -1035,10 +1034,12 @@ def test_grippers_in_percent(d: TestDaemon):
 # ----------------------------------------------------------------------------- settings
 def test_settings_refused_while_moving(d: TestDaemon):
     start_long_motion(d)
-    assert code(d.spec_a.ResetOriginalFrame(pb.ResetOriginalFrameRequest())) == Code.STATUS_ERR
+    assert (
+        code(d.spec_a.ResetOriginalFrame(pb.ResetOriginalFrameRequest())) == ReturnCode.STATUS_ERR
+    )
     offset = pb.SetControlPointOffsetRequest(type=RIGHT, offset=hg())
-    assert code(d.spec_a.SetControlPointOffset(offset)) == Code.STATUS_ERR
-    assert code(select(d, elbow=True)) == Code.STATUS_ERR
+    assert code(d.spec_a.SetControlPointOffset(offset)) == ReturnCode.STATUS_ERR
+    assert code(select(d, elbow=True)) == ReturnCode.STATUS_ERR
 
 
 def test_redundant_axes_mask_decides_reachability(d: TestDaemon):
@@ -1049,13 +1050,13 @@ def test_redundant_axes_mask_decides_reachability(d: TestDaemon):
     far[0, 3] += 400.0
     fast = pb.CartesianSpeed(translation=300.0, rotation=60.0)
     request = _linear_abs(d, abs_hg_mat=hg_of(far), speed=fast)
-    assert code(d.spec_a.MoveLinearCartesianAbs(request)) == Code.CANNOT_REACH_TARGET_ERR
+    assert code(d.spec_a.MoveLinearCartesianAbs(request)) == ReturnCode.CANNOT_REACH_TARGET_ERR
     narrow = pb.SelectRedundantAxesRequest(
         redundancy=pb.RedundantAxesMask(elbow=True, vehicle_x=True),
         limit=pb.RedundantLimit(vehicle_x=pb.LimitValue(lower=-10, upper=10)),
     )
     ok(d.spec_a.SelectRedundantAxes(narrow))
-    assert code(d.spec_a.MoveLinearCartesianAbs(request)) == Code.CANNOT_REACH_TARGET_ERR
+    assert code(d.spec_a.MoveLinearCartesianAbs(request)) == ReturnCode.CANNOT_REACH_TARGET_ERR
     ok(select(d, elbow=True, vehicle_x=True, lumbar_ry=True))
     ok(d.spec_a.MoveLinearCartesianAbs(request))
     assert d.wait_idle(30.0)
@@ -1205,5 +1206,5 @@ def test_two_clients_racing_for_one_robot(d: TestDaemon):
         t.start()
     for t in threads:
         t.join(30.0)
-    assert sorted(replies) == [Code.STATUS_ERR, Code.OK]
+    assert sorted(replies) == [ReturnCode.STATUS_ERR, ReturnCode.OK]
     assert d.ctx.snapshot().started - d.ctx.snapshot().finished == 1

@@ -11,6 +11,8 @@ import pytest
 
 from controller.contract import snapshot as snap
 from controller.contract.snapshot import SnapshotReader, SnapshotWriter
+from controller.vocabulary import CoreState
+from hal.interface import HardwareState
 
 N = 5
 
@@ -25,8 +27,8 @@ def test_published_values_come_back(tmp_path: Path):
     try:
         w.begin()
         w.header[snap.H_CYCLE] = 42
-        w.header[snap.H_CORE_STATE] = snap.CORE_STATES.index("busy")
-        w.header[snap.H_HW_STATE] = snap.HW_STATES.index("active")
+        w.header[snap.H_CORE_STATE] = int(CoreState.BUSY)
+        w.header[snap.H_HW_STATE] = snap.HW_STATES.index(HardwareState.ACTIVE)
         w.header[snap.H_FLAGS] = snap.F_MOVING | snap.F_SERVO_ON
         w.header[snap.H_QUEUE] = 2
         w.values[snap.V_STAMP] = 12.5
@@ -42,7 +44,8 @@ def test_published_values_come_back(tmp_path: Path):
     finally:
         r.close()
         w.unlink()
-    assert s.cycle == 42 and s.core_state == "busy" and s.hw_state == "active"
+    assert s.cycle == 42 and s.core_state == CoreState.BUSY
+    assert s.hw_state == HardwareState.ACTIVE
     assert s.moving and s.servo_on and s.queue == 2 and s.queue_depth == 4
     assert s.stamp == 12.5 and s.original_theta == 0.25
     np.testing.assert_array_equal(s.q, np.arange(N) * 0.1)
@@ -169,7 +172,7 @@ def test_core_and_hardware_states_decode_by_name(tmp_path: Path):
     w = SnapshotWriter(tmp_path / "s", N)
     r = SnapshotReader(tmp_path / "s", N)
     try:
-        for i, name in enumerate(snap.CORE_STATES):
+        for i, name in enumerate(CoreState):
             w.begin()
             w.header[snap.H_CORE_STATE] = i
             w.header[snap.H_HW_STATE] = i % len(snap.HW_STATES)

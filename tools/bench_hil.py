@@ -31,10 +31,11 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 from bench_loop import script  # noqa: E402
 
-from controller.control.core import CoreState, MotionCore  # noqa: E402
+from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
 from controller.motion.motions import Motion  # noqa: E402
+from controller.vocabulary import CoreState  # noqa: E402
 from hal.can.backend import CanBackend  # noqa: E402
 from hal.factory import make_hardware  # noqa: E402
 

@@ -97,7 +97,6 @@ from pink.limits import VelocityLimit as PinkVelocityLimit
 
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot, load_robot
-from controller.vocabulary import RightLeft, UnitType
 from controller.qp.ik import DAMPING, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
 from controller.qp.tasks import (
@@ -107,6 +106,7 @@ from controller.qp.tasks import (
     ControlPointTask,
     PostureTask,
 )
+from controller.vocabulary import RightLeft, UnitType
 
 #: Time [s] over which the figure-eight and the wobble fade in from rest.
 RAMP = 1.0

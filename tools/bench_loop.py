@@ -28,11 +28,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 import pinocchio as pin
 
-from controller.control.core import CoreState, MotionCore
+from controller.control.core import MotionCore
 from controller.control.loop import FixedRateLoop
 from controller.model.redundant_axes import axis_value, elbow_axis
 from controller.model.robot import load_robot
-from controller.vocabulary import RightLeft, UnitType
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
@@ -42,6 +41,7 @@ from controller.motion.motions import (
 )
 from controller.motion.paths import LinePath
 from controller.motion.reachability import ReachabilityChecker
+from controller.vocabulary import CoreState, RightLeft, UnitType
 from hal.mujoco_backend import MujocoBackend
 
 RIGHT = RightLeft.RIGHT

@@ -26,7 +26,7 @@ from controller.client.types import StateSample, UnitType
 #: Shortest time between two drawn frames [s].
 MIN_FRAME_PERIOD = 0.05
 
-_STATE_STYLES = {
+_STATE_STYLES: dict[int, str] = {
     codes.READY: "green",
     codes.BUSY: "cyan",
     codes.PAUSE: "yellow",

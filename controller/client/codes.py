@@ -1,4 +1,5 @@
-"""Return codes (``ReturnID.id``), Spec A states and JARA_ARM state bits, as constants.
+"""Return codes (``ReturnID.id``), Spec A states and JARA_ARM state bits, as constants
+(the enums of :mod:`controller.vocabulary` under the names the client has always offered).
 
 The codes are the originals' (see docs/client.md); ``-6`` means ``CANNOT_REACH_TARGET_ERR`` in
 Spec A and ``NOT_IMPLEMENTED`` in JARA_ARM, which imotion never returns.
@@ -8,58 +9,45 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-OK = 0
-NG = -1
-STATUS_ERR = -2
-VALUE_ERR = -3
-NOT_SV_ON_ERR = -4
-FULL_MOTION_QUEUE_ERR = -5
-CANNOT_REACH_TARGET_ERR = -6
+from controller.vocabulary import (
+    JARA_STATE_NAMES,
+    SPEC_A_STATE_NAMES,
+    JaraState,
+    ReturnCode,
+    SpecAState,
+)
+
+OK = ReturnCode.OK
+NG = ReturnCode.NG
+STATUS_ERR = ReturnCode.STATUS_ERR
+VALUE_ERR = ReturnCode.VALUE_ERR
+NOT_SV_ON_ERR = ReturnCode.NOT_SV_ON_ERR
+FULL_MOTION_QUEUE_ERR = ReturnCode.FULL_MOTION_QUEUE_ERR
+CANNOT_REACH_TARGET_ERR = ReturnCode.CANNOT_REACH_TARGET_ERR
 
 #: Return code -> name.
-RETURN_CODE_NAMES: dict[int, str] = {
-    OK: "OK",
-    NG: "NG",
-    STATUS_ERR: "STATUS_ERR",
-    VALUE_ERR: "VALUE_ERR",
-    NOT_SV_ON_ERR: "NOT_SV_ON_ERR",
-    FULL_MOTION_QUEUE_ERR: "FULL_MOTION_QUEUE_ERR",
-    CANNOT_REACH_TARGET_ERR: "CANNOT_REACH_TARGET_ERR",
-}
+RETURN_CODE_NAMES: dict[int, str] = {c.value: c.name for c in ReturnCode}
 
 # Spec A getState statusId.
-UNPOWERED = 0x010
-SERVO_OFF = 0x011
-READY = 0x012
-BUSY = 0x013
-PAUSE = 0x014
-ALARM = 0x015
+UNPOWERED = SpecAState.UNPOWERED
+SERVO_OFF = SpecAState.SERVO_OFF
+READY = SpecAState.READY
+BUSY = SpecAState.BUSY
+PAUSE = SpecAState.PAUSE
+ALARM = SpecAState.ALARM
 
 #: Spec A statusId -> name.
-STATE_NAMES: dict[int, str] = {
-    UNPOWERED: "Unpowered",
-    SERVO_OFF: "ServoOff",
-    READY: "Ready",
-    BUSY: "Busy",
-    PAUSE: "Pause",
-    ALARM: "Alarm",
-}
+STATE_NAMES: dict[int, str] = {s.value: name for s, name in SPEC_A_STATE_NAMES.items()}
 
 # JARA_ARM ManipulatorCommon getState bits.
-JARA_SERVO_ON = 0x01
-JARA_MOVING = 0x02
-JARA_ALARM = 0x04
-JARA_BUFFER_FULL = 0x08
-JARA_PAUSED = 0x10
+JARA_SERVO_ON = JaraState.SERVO_ON
+JARA_MOVING = JaraState.MOVING
+JARA_ALARM = JaraState.ALARM
+JARA_BUFFER_FULL = JaraState.BUFFER_FULL
+JARA_PAUSED = JaraState.PAUSED
 
 #: JARA_ARM state bit -> name.
-JARA_STATE_BITS: dict[int, str] = {
-    JARA_SERVO_ON: "servo on",
-    JARA_MOVING: "moving",
-    JARA_ALARM: "alarm",
-    JARA_BUFFER_FULL: "motion buffer full",
-    JARA_PAUSED: "paused",
-}
+JARA_STATE_BITS: dict[int, str] = {b.value: name for b, name in JARA_STATE_NAMES.items()}
 
 
 def return_code_name(code: int) -> str:

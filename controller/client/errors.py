@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import grpc
 
+from controller import errors
+
 
 class ClientError(Exception):
     """Base class: the client could not get an answer to an operation."""
@@ -25,8 +27,8 @@ class RpcFailed(ClientError):
         self.code = code
 
 
-class ArgumentError(ClientError, ValueError):
-    """An argument cannot be converted to the contract's type; nothing was sent."""
+class ArgumentError(ClientError, errors.ArgumentError):
+    """An argument cannot be converted to the contract's type; nothing was sent (VALUE_ERR)."""
 
 
 _UNREACHABLE = (grpc.StatusCode.UNAVAILABLE, grpc.StatusCode.DEADLINE_EXCEEDED)

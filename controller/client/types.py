@@ -13,40 +13,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-
-class RightLeft(enum.IntEnum):
-    RIGHT = 0
-    LEFT = 1
-
-
-class FrameType(enum.IntEnum):
-    """Frame of a feedback pose (Spec A)."""
-
-    ORIGINAL_FRAME = 0
-    CURRENT_FRAME = 1
-
-
-class CommandFrameType(enum.IntEnum):
-    """Frame of a relative Cartesian command (Spec A)."""
-
-    BASE_FRAME = 0
-    TOOL_FRAME = 1
-
-
-class UnitType(enum.IntEnum):
-    """Motion unit (Spec A); ``LUMBER`` (sic) is the waist."""
-
-    RIGHT_ARM = 0
-    LEFT_ARM = 1
-    LUMBER = 2
-    VEHICLE = 3
-
-
-class AlarmType(enum.IntEnum):
-    FAULT = 0
-    WARNING = 1
-    UNKNOWN = 2
-
+from controller.vocabulary import AlarmType, CommandFrameType, FrameType, RightLeft, UnitType
 
 RIGHT = RightLeft.RIGHT
 LEFT = RightLeft.LEFT

@@ -18,14 +18,24 @@ from multiprocessing.connection import Client, Connection, Listener
 from pathlib import Path
 from typing import Any, Protocol
 
+from controller.errors import ChannelError
+from controller.vocabulary import ReturnCode
+
 
 class Answer(Protocol):
     """The loop's answer to one command."""
 
-    ok: bool
-    value: Any
-    code: str
-    message: str
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def value(self) -> Any: ...
+    @property
+    def code(self) -> int:
+        """A ReturnCode value (when not ``ok``)."""
+        ...
+
+    @property
+    def message(self) -> str: ...
 
 
 class CommandSink(Protocol):
@@ -38,10 +48,6 @@ _log = logging.getLogger("imotiond.channel")
 
 SOCKET_NAME = "control.sock"
 KEY_NAME = "control.key"
-
-
-class ChannelError(RuntimeError):
-    """The control process cannot be reached."""
 
 
 class CommandServer:
@@ -82,13 +88,13 @@ class CommandServer:
                 except (EOFError, OSError):
                     return
                 except Exception as exc:
-                    conn.send((False, "NG", f"malformed command: {exc}"))
+                    conn.send((False, int(ReturnCode.NG), f"malformed command: {exc}"))
                     continue
                 request = self.controller.submit(name, **args)
                 if request.ok:
                     conn.send((True, request.value, ""))
                 else:
-                    conn.send((False, request.code, request.message))
+                    conn.send((False, int(request.code), request.message))
 
     def close(self) -> None:
         self._closed = True
@@ -122,7 +128,7 @@ class CommandClient:
         return self._conn
 
     def call(self, name: str, **args: Any) -> tuple[bool, Any, str]:
-        """``(True, value, "")`` or ``(False, code_name, message)``."""
+        """``(True, value, "")`` or ``(False, code, message)`` (code: a ReturnCode value)."""
         with self._lock:
             try:
                 conn = self._connect()

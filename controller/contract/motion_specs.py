@@ -18,7 +18,6 @@ import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
-from controller.vocabulary import RightLeft
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
@@ -29,6 +28,7 @@ from controller.motion.motions import (
 )
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.stream import JointStreamMotion
+from controller.vocabulary import RightLeft
 
 Range = tuple[float, float]
 

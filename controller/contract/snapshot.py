@@ -26,10 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
+from controller.vocabulary import CoreState
+from hal.interface import HardwareState
+
 # header indices
 H_SEQ = 0
 H_CYCLE = 1
-H_CORE_STATE = 2  #: index into CORE_STATES
+H_CORE_STATE = 2  #: a CoreState value
 H_HW_STATE = 3  #: index into HW_STATES
 H_FLAGS = 4
 H_QUEUE = 5  #: motions waiting in the queue
@@ -59,8 +62,8 @@ VALUES_FIXED = 44
 
 ALARM_BYTES = 16384
 
-CORE_STATES = ("servo off", "ready", "busy", "paused", "alarm")
-HW_STATES = ("unconfigured", "inactive", "active", "fault", "finalized")
+#: Hardware states in the order of their header value.
+HW_STATES: tuple[HardwareState, ...] = tuple(HardwareState)
 
 
 @dataclass
@@ -68,8 +71,8 @@ class Snapshot:
     """One consistent copy of the published state."""
 
     cycle: int
-    core_state: str  #: a value of controller.control.core.CoreState
-    hw_state: str  #: a value of hal.interface.HardwareState
+    core_state: CoreState
+    hw_state: HardwareState
     flags: int
     queue: int
     queue_depth: int
@@ -202,7 +205,7 @@ class SnapshotReader(_Mapped):
 def _decode(header: np.ndarray, values: np.ndarray, alarm_bytes: bytes, n: int) -> Snapshot:
     return Snapshot(
         cycle=int(header[H_CYCLE]),
-        core_state=CORE_STATES[int(header[H_CORE_STATE])],
+        core_state=CoreState(int(header[H_CORE_STATE])),
         hw_state=HW_STATES[int(header[H_HW_STATE])],
         flags=int(header[H_FLAGS]),
         queue=int(header[H_QUEUE]),

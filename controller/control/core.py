@@ -17,20 +17,20 @@ Faults (hardware faults, a failed QP, a failed time law) drop the motion, hold p
 
 from __future__ import annotations
 
-import enum
 import threading
 
 import numpy as np
 
+from controller.errors import StateError
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
-from controller.vocabulary import RightLeft
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
 from controller.qp.ik import IKResult, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
+from controller.vocabulary import CoreState, RightLeft
 from hal.interface import HardwareFault, HardwareInterface, HardwareState, JointCommand
 
 #: A finished motion counts as arrived when every commanded speed is below this [rad/s, m/s].
@@ -39,16 +39,8 @@ SETTLED_SPEED = 1e-5
 SETTLE_TIME = 0.5
 
 
-class CoreState(enum.Enum):
-    SERVO_OFF = "servo off"
-    READY = "ready"
-    BUSY = "busy"
-    PAUSED = "paused"
-    ALARM = "alarm"
-
-
-class CoreError(RuntimeError):
-    """A request that the core's state does not allow (the service maps it to a code)."""
+class CoreError(StateError):
+    """A request that the core's state does not allow (STATUS_ERR)."""
 
 
 class GripperMotion:
@@ -169,7 +161,7 @@ class MotionCore:
         """Run ``motion`` (built against the current measured state). Only from READY."""
         with self._lock:
             if self.state != CoreState.READY:
-                raise CoreError(f"cannot start a motion while {self.state.value}")
+                raise CoreError(f"cannot start a motion while {self.state.text}")
             self._apply(motion.setup())
             self.motion = motion
             self.state = CoreState.BUSY
@@ -214,7 +206,7 @@ class MotionCore:
         """Move a gripper to ``ratio`` (0 closed .. 1 open)."""
         with self._lock:
             if self.state not in (CoreState.READY, CoreState.BUSY, CoreState.PAUSED):
-                raise CoreError(f"cannot move a gripper while {self.state.value}")
+                raise CoreError(f"cannot move a gripper while {self.state.text}")
             idx = self._grippers[side]
             g = self.robot.profile.grippers[side.name]  # type: ignore[index]
             specs = [self.robot.joints[n] for n in g.joints]

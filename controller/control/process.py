@@ -32,11 +32,12 @@ import pinocchio as pin
 
 from controller.contract import snapshot as snap
 from controller.contract.motion_specs import CartesianBox, JointStreamSpec, MotionSpec
-from controller.control.core import CoreError, CoreState, MotionCore
+from controller.control.core import CoreError, MotionCore
 from controller.control.loop import FixedRateLoop
+from controller.errors import Refused
 from controller.model.alarms import AlarmCode
 from controller.model.robot import Robot
-from controller.vocabulary import FrameType, RightLeft
+from controller.vocabulary import CoreState, FrameType, ReturnCode, RightLeft
 from hal.interface import HardwareInterface, HardwareState
 
 _log = logging.getLogger("imotiond.control")
@@ -48,15 +49,6 @@ PLAN_TOLERANCE = 2e-3
 STATS_PERIOD = 0.2
 
 
-class Refused(Exception):
-    """A command the current state or its arguments do not allow."""
-
-    def __init__(self, code: str, message: str):
-        super().__init__(message)
-        self.code = code
-        self.message = message
-
-
 @dataclass
 class Request:
     name: str
@@ -64,7 +56,7 @@ class Request:
     done: threading.Event = field(default_factory=threading.Event)
     ok: bool = False
     value: Any = None
-    code: str = "NG"
+    code: ReturnCode = ReturnCode.NG
     message: str = ""
     #: Set when the caller stopped waiting; the loop then drops the request unexecuted.
     cancelled: bool = False
@@ -143,16 +135,16 @@ class Controller:
         handler = self._handlers.get(request.name)
         try:
             if handler is None:
-                raise Refused("NG", f"unknown command {request.name!r}")
+                raise Refused(ReturnCode.NG, f"unknown command {request.name!r}")
             request.value = handler(**request.args)
             request.ok = True
         except Refused as exc:
-            request.code, request.message = exc.code, exc.message
+            request.code, request.message = exc.code, exc.comment
         except CoreError as exc:
-            request.code, request.message = "STATUS_ERR", str(exc)
+            request.code, request.message = exc.code, exc.comment
         except Exception as exc:  # a command must never take the loop down
             _log.exception("command %s failed", request.name)
-            request.code, request.message = "NG", f"{request.name} failed: {exc}"
+            request.code, request.message = ReturnCode.NG, f"{request.name} failed: {exc}"
 
     def submit(self, name: str, timeout: float = 5.0, **args: Any) -> Request:
         """Hand a command to the loop and wait for its answer (any thread but the loop's)."""
@@ -160,7 +152,7 @@ class Controller:
         self.inbox.put(request)
         if not request.done.wait(timeout):
             request.cancelled = True
-            request.code, request.message = "NG", "the control loop did not answer in time"
+            request.code, request.message = ReturnCode.NG, "the control loop did not answer in time"
         return request
 
     def _after_cycle(self) -> None:
@@ -225,8 +217,8 @@ class Controller:
         h = w.header
         w.begin()
         h[snap.H_CYCLE] = core.cycles
-        h[snap.H_CORE_STATE] = snap.CORE_STATES.index(core.state.value)
-        h[snap.H_HW_STATE] = snap.HW_STATES.index(self.hw.state.value)
+        h[snap.H_CORE_STATE] = int(core.state)
+        h[snap.H_HW_STATE] = snap.HW_STATES.index(self.hw.state)
         flags = 0
         if core.is_moving:
             flags |= snap.F_MOVING
@@ -301,17 +293,17 @@ class Controller:
     def _require_powered(self) -> None:
         state = self.core.state
         if state == CoreState.ALARM:
-            raise Refused("STATUS_ERR", "alarms are active: clearAlarms, then servoOn")
+            raise Refused(ReturnCode.STATUS_ERR, "alarms are active: clearAlarms, then servoOn")
         if state == CoreState.SERVO_OFF:
-            raise Refused("NOT_SV_ON_ERR", "the servos are off: call servoOn first")
+            raise Refused(ReturnCode.NOT_SV_ON_ERR, "the servos are off: call servoOn first")
 
     def cmd_servo_on(self) -> None:
         try:
             self.core.servo_on()
         except CoreError as exc:
-            raise Refused("NG", f"servo on failed: {exc}") from None
+            raise Refused(ReturnCode.NG, f"servo on failed: {exc}") from None
         except Exception as exc:
-            raise Refused("NG", f"servo on failed: {exc}") from None
+            raise Refused(ReturnCode.NG, f"servo on failed: {exc}") from None
 
     def cmd_servo_off(self) -> None:
         self.queue.clear()
@@ -355,8 +347,8 @@ class Controller:
         if not queued:
             if state != CoreState.READY:
                 raise Refused(
-                    "STATUS_ERR",
-                    f"the robot is {state.value}: a motion command is accepted only when "
+                    ReturnCode.STATUS_ERR,
+                    f"the robot is {state.text}: a motion command is accepted only when "
                     "ready (this interface does not queue); wait, stop or resume first",
                 )
             self._check_plan(spec)
@@ -367,7 +359,7 @@ class Controller:
             return "started"
         if len(self.queue) >= self.queue_depth:
             raise Refused(
-                "FULL_MOTION_QUEUE_ERR",
+                ReturnCode.FULL_MOTION_QUEUE_ERR,
                 f"the motion queue is full ({self.queue_depth} waiting): wait or stop",
             )
         self.queue.append(spec)
@@ -377,7 +369,7 @@ class Controller:
         try:
             self._start(spec)
         except ValueError as exc:  # e.g. a finite but absurd target no time law can cover
-            raise Refused("VALUE_ERR", f"{spec.label}: cannot be planned: {exc}") from None
+            raise Refused(ReturnCode.VALUE_ERR, f"{spec.label}: cannot be planned: {exc}") from None
 
     def _check_plan(self, spec: MotionSpec) -> None:
         if spec.planned_from is None:
@@ -385,7 +377,7 @@ class Controller:
         moved = float(np.max(np.abs(self.core.kin.q - spec.planned_from), initial=0.0))
         if moved > PLAN_TOLERANCE:
             raise Refused(
-                "STATUS_ERR",
+                ReturnCode.STATUS_ERR,
                 "the robot moved while this command was being planned (another command ran "
                 "first): send it again",
             )
@@ -393,12 +385,12 @@ class Controller:
     def cmd_gripper(self, side: RightLeft, ratio: float) -> None:
         self._require_powered()
         if self.core.state == CoreState.PAUSED:
-            raise Refused("STATUS_ERR", "paused: resume or stop before moving a gripper")
+            raise Refused(ReturnCode.STATUS_ERR, "paused: resume or stop before moving a gripper")
         self.core.move_gripper(side, ratio)
 
     def _require_still(self, what: str) -> None:
         if self.core.is_moving or self.queue:
-            raise Refused("STATUS_ERR", f"{what} is not allowed while the robot moves")
+            raise Refused(ReturnCode.STATUS_ERR, f"{what} is not allowed while the robot moves")
 
     def cmd_reset_original_frame(self) -> None:
         self._require_still("resetOriginalFrame")
@@ -413,7 +405,7 @@ class Controller:
     def cmd_set_joint_limits(self, indices: np.ndarray, lower: np.ndarray, upper: np.ndarray):
         """Narrow (or restore) the IK position limits of kinematic joints ``indices``."""
         if self.core.state == CoreState.ALARM:
-            raise Refused("STATUS_ERR", "alarms are active: clear them first")
+            raise Refused(ReturnCode.STATUS_ERR, "alarms are active: clear them first")
         self._require_still("setSoftLimitJoint")
         q = self.core.kin.q[indices]
         outside = [
@@ -423,7 +415,9 @@ class Controller:
         ]
         if outside:
             names = ", ".join(self.core.kin.joint_names[i] for i in outside)
-            raise Refused("VALUE_ERR", f"joints {names} are outside the new limits right now")
+            raise Refused(
+                ReturnCode.VALUE_ERR, f"joints {names} are outside the new limits right now"
+            )
         box = self.core.ik.box
         q_min, q_max = box.q_min.copy(), box.q_max.copy()
         q_min[indices], q_max[indices] = lower, upper
@@ -437,4 +431,4 @@ class Controller:
             self.boxes[side] = box
 
     def cmd_status(self) -> dict[str, Any]:
-        return {"state": self.core.state.value, "queue": len(self.queue)}
+        return {"state": int(self.core.state), "queue": len(self.queue)}

@@ -161,7 +161,7 @@ def _supervise(daemon: Daemon) -> None:
         if cycles != last_cycle:
             systemd.notify("WATCHDOG=1")
             last_cycle = cycles
-        status = f"STATUS={ctl.core.state.value}, {len(ctl.core.alarms)} alarm(s)"
+        status = f"STATUS={ctl.core.state.text}, {len(ctl.core.alarms)} alarm(s)"
         if status != last_status:
             systemd.notify(status)
             last_status = status

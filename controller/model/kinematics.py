@@ -72,7 +72,7 @@ class Kinematics:
             self._elbow_dirs[side] = (f / np.linalg.norm(f), t / np.linalg.norm(t))
 
         self._units = {
-            unit: np.array([self._q_index[n] for n in robot.unit_joints(unit.value)], dtype=int)
+            unit: np.array([self._q_index[n] for n in robot.unit_joints(unit.name)], dtype=int)
             for unit in UnitType
         }
         self.model = model

@@ -8,11 +8,9 @@ from typing import Any, TypeVar
 import yaml
 from pydantic import BaseModel, ValidationError
 
+from controller.errors import ConfigError
+
 M = TypeVar("M", bound=BaseModel)
-
-
-class ConfigError(ValueError):
-    """A configuration file is unreadable or invalid; the message names file, key and problem."""
 
 
 def key_path(loc: tuple[int | str, ...]) -> str:

@@ -34,10 +34,10 @@ import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
-from controller.vocabulary import RightLeft, UnitType
 from controller.motion.paths import ArcPath, LinePath, VectorPath
 from controller.motion.profile import PathProfile, ProfileState
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
+from controller.vocabulary import RightLeft, UnitType
 
 Range = tuple[float, float]
 

@@ -25,12 +25,12 @@ import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, available_axes, axis_jacobian
-from controller.vocabulary import RightLeft
 from controller.motion.motions import IKSetup
 from controller.motion.paths import ArcPath, LinePath
 from controller.qp.limits import BRAKING_SHARE, AxisRows
 from controller.qp.solver import ProxQPSolver
 from controller.qp.tasks import pose_error
+from controller.vocabulary import RightLeft
 
 #: Accepted residual at every sample: position [m], orientation [rad].
 POSITION_TOL = 1e-4

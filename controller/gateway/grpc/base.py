@@ -22,12 +22,12 @@ from controller.contract.channel import ChannelError, CommandClient
 from controller.contract.config import DaemonConfig
 from controller.contract.snapshot import Snapshot
 from controller.conversions import ArgumentError, hg_to_se3, se3_to_hg
-from controller.gateway.grpc.replies import REFUSAL_CODES, Code, Failure
+from controller.errors import Refused
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
 from controller.model.robot import Robot
-from controller.vocabulary import RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
+from controller.vocabulary import ReturnCode, RightLeft, UnitType
 
 _log = logging.getLogger("imotiond.service")
 
@@ -49,17 +49,17 @@ class Context:
         return self.view.snapshot()
 
     def call(self, name: str, sv_on_code: bool = True, **args: Any) -> Any:
-        """Run a control command; a refusal becomes a Failure with the family's code.
+        """Run a control command; a refusal becomes a Refused with the family's code.
 
         ``sv_on_code``: the operation lists NOT_SV_ON_ERR (else servo off is STATUS_ERR).
         """
         ok, value, message = self.control.call(name, **args)
         if ok:
             return value
-        code = REFUSAL_CODES.get(value, Code.NG)
-        if code == Code.NOT_SV_ON_ERR and not sv_on_code:
-            code = Code.STATUS_ERR
-        raise Failure(code, message)
+        code = ReturnCode(value) if value in ReturnCode._value2member_map_ else ReturnCode.NG
+        if code == ReturnCode.NOT_SV_ON_ERR and not sv_on_code:
+            code = ReturnCode.STATUS_ERR
+        raise Refused(code, message)
 
 
 def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -74,17 +74,17 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
             try:
                 outs = fn(self, request) or {}
                 comment = outs.pop("comment", "OK")
-                return response(return_id=pb.ReturnID(id=Code.OK, comment=comment), **outs)
-            except Failure as exc:
+                return response(return_id=pb.ReturnID(id=ReturnCode.OK, comment=comment), **outs)
+            except Refused as exc:
                 code, comment = exc.code, exc.comment
             except ArgumentError as exc:
-                code, comment = Code.VALUE_ERR, str(exc)
+                code, comment = ReturnCode.VALUE_ERR, str(exc)
             except ChannelError as exc:
-                code, comment = Code.NG, f"the control loop is not reachable: {exc}"
+                code, comment = ReturnCode.NG, f"the control loop is not reachable: {exc}"
             except Exception as exc:  # never let a request take the gateway down
                 _log.exception("%s failed", fn.__name__)
-                code, comment = Code.NG, f"internal error in {fn.__name__}: {exc!r}"
-            _log.info("%s -> %s: %s", fn.__name__, Code(code).name, comment)
+                code, comment = ReturnCode.NG, f"internal error in {fn.__name__}: {exc!r}"
+            _log.info("%s -> %s: %s", fn.__name__, ReturnCode(code).name, comment)
             return response(return_id=pb.ReturnID(id=code, comment=comment))
 
         return handler

@@ -12,12 +12,12 @@ from __future__ import annotations
 import grpc
 
 from controller.conversions import ArgumentError
+from controller.errors import Refused
 from controller.gateway.grpc.base import Context, hg_msg, ratio_arg, rpc, seq_arg
 from controller.gateway.grpc.jara_arms import JaraArms, car_pos_arg
-from controller.gateway.grpc.replies import Code, Failure
-from controller.vocabulary import FrameType, RightLeft
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import FrameType, ReturnCode, RightLeft
 
 C = "DualManipulatorCommon"
 M = "DualManipulatorMiddle"
@@ -29,7 +29,9 @@ def _r(service: str, name: str) -> type:
 
 def _require_dual(arms: JaraArms) -> None:
     if set(arms.arms) != {RightLeft.RIGHT, RightLeft.LEFT}:
-        raise Failure(Code.VALUE_ERR, "this robot has one arm: the dual-arm interface needs two")
+        raise Refused(
+            ReturnCode.VALUE_ERR, "this robot has one arm: the dual-arm interface needs two"
+        )
 
 
 class DualManipulatorCommonServicer(pb_grpc.DualManipulatorCommonServicer):
@@ -51,7 +53,7 @@ class DualManipulatorCommonServicer(pb_grpc.DualManipulatorCommonServicer):
     def ServoONHand(self, request):
         _require_dual(self.arms)
         if not self.ctx.snapshot().servo_on:
-            raise Failure(Code.STATUS_ERR, "the arms are servo off: call servoONArm first")
+            raise Refused(ReturnCode.STATUS_ERR, "the arms are servo off: call servoONArm first")
         self.arms.hands_on = True
 
     @rpc(_r(C, "ServoOFFHand"))
@@ -68,7 +70,7 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
     def _grippers(self, ratios: dict[RightLeft, float | None]) -> None:
         _require_dual(self.arms)
         if not self.arms.hands_on:
-            raise Failure(Code.STATUS_ERR, "the hands are servo off: call servoONHand first")
+            raise Refused(ReturnCode.STATUS_ERR, "the hands are servo off: call servoONHand first")
         for side, ratio in ratios.items():
             if ratio is not None and not self.arms.has_gripper(side):
                 raise ArgumentError(f"the {side.name} arm has no gripper")

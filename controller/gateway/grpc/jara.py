@@ -15,6 +15,7 @@ import numpy as np
 
 from controller.contract.motion_specs import CartesianBox
 from controller.conversions import ArgumentError
+from controller.errors import Refused
 from controller.gateway.grpc.base import (
     Context,
     alarm_msgs,
@@ -28,10 +29,10 @@ from controller.gateway.grpc.base import (
     seq_arg,
 )
 from controller.gateway.grpc.jara_arms import NO_BOX_MM, JaraArms, car_pos_arg
-from controller.gateway.grpc.replies import Code, Failure, jara_state
-from controller.vocabulary import RightLeft, UnitType
+from controller.gateway.grpc.replies import jara_state
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import CoreState, ReturnCode, RightLeft, UnitType
 
 C = "ManipulatorCommon"
 M = "ManipulatorMiddle"
@@ -132,10 +133,10 @@ class ManipulatorCommonServicer(pb_grpc.ManipulatorCommonServicer):
                     f"{s.hw_lower[i]:g}..{s.hw_upper[i]:g} deg"
                 )
         snap = self.ctx.snapshot()
-        if snap.core_state == "alarm":
-            raise Failure(Code.STATUS_ERR, "not in alarm: clearAlarms first")
+        if snap.core_state == CoreState.ALARM:
+            raise Refused(ReturnCode.STATUS_ERR, "not in alarm: clearAlarms first")
         if snap.moving or snap.queue:
-            raise Failure(Code.STATUS_ERR, "not while the robot moves")
+            raise Refused(ReturnCode.STATUS_ERR, "not while the robot moves")
         joints = self.arms.joints(side)
         with self.arms.lock:
             self.ctx.call(
@@ -156,7 +157,7 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
         if not self.arms.has_gripper(side):
             raise ArgumentError(f"arm: the {side.name} arm has no gripper")
         if not self.arms.hands_on:
-            raise Failure(Code.STATUS_ERR, "the hands are servo off: call servoONHand first")
+            raise Refused(ReturnCode.STATUS_ERR, "the hands are servo off: call servoONHand first")
         self.ctx.call("gripper", side=side, ratio=ratio)
 
     @rpc(_r(M, "CloseGripper"))
@@ -196,7 +197,7 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
         offset = hg_arg(request.offset, "offset")
         snap = self.ctx.snapshot()
         if snap.moving or snap.queue:
-            raise Failure(Code.STATUS_ERR, "not while the robot moves")
+            raise Refused(ReturnCode.STATUS_ERR, "not while the robot moves")
         with self.arms.lock:
             s.base_offset = offset
             self._push_box(side)
@@ -351,7 +352,7 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
                 f"the control point ({shown}) mm is outside the new limits: move it inside first"
             )
         if snap.moving or snap.queue:
-            raise Failure(Code.STATUS_ERR, "not while the robot moves")
+            raise Refused(ReturnCode.STATUS_ERR, "not while the robot moves")
         with self.arms.lock:
             s.soft_box = (lo, hi)
             self._push_box(side)

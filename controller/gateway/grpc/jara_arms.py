@@ -24,13 +24,13 @@ import pinocchio as pin
 from controller.contract.motion_specs import DualCartesianSpec, JointStreamSpec, MotionSpec
 from controller.contract.snapshot import Snapshot
 from controller.conversions import ArgumentError
+from controller.errors import Refused
 from controller.gateway.grpc.base import Context, finite_arg, hg_arg
-from controller.gateway.grpc.replies import Code, Failure
 from controller.gateway.grpc.spec_a import relative_pose
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, elbow_axis
-from controller.vocabulary import FrameType, RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
+from controller.vocabulary import CoreState, FrameType, ReturnCode, RightLeft, UnitType
 
 Box = tuple[np.ndarray, np.ndarray]  # lower, upper [mm] in the arm frame
 #: getSoftLimitCartesian before any setSoftLimitCartesian: no limit, shown as ±10 m.
@@ -111,9 +111,9 @@ def unreachable_is_value_err() -> Iterator[None]:
     target is an invalid argument there."""
     try:
         yield
-    except Failure as exc:
-        if exc.code == Code.CANNOT_REACH_TARGET_ERR:
-            raise Failure(Code.VALUE_ERR, exc.comment) from None
+    except Refused as exc:
+        if exc.code == ReturnCode.CANNOT_REACH_TARGET_ERR:
+            raise Refused(ReturnCode.VALUE_ERR, exc.comment) from None
         raise
 
 
@@ -186,10 +186,10 @@ class JaraArms:
     # ------------------------------------------------------------------ state
     @staticmethod
     def require_motion_state(snap: Snapshot) -> None:
-        if snap.core_state == "alarm":
-            raise Failure(Code.STATUS_ERR, "alarms are active: clearAlarms, then servoON")
-        if snap.core_state == "servo off":
-            raise Failure(Code.NOT_SV_ON_ERR, "the servos are off: call servoON first")
+        if snap.core_state == CoreState.ALARM:
+            raise Refused(ReturnCode.STATUS_ERR, "alarms are active: clearAlarms, then servoON")
+        if snap.core_state == CoreState.SERVO_OFF:
+            raise Refused(ReturnCode.NOT_SV_ON_ERR, "the servos are off: call servoON first")
 
     def submit(
         self, spec: MotionSpec, q_end: np.ndarray, poses: dict[RightLeft, pin.SE3] | None = None

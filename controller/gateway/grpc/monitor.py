@@ -16,9 +16,9 @@ import grpc
 
 from controller.gateway.grpc.base import Context, alarm_msgs, car_pos_msg
 from controller.gateway.grpc.replies import spec_a_state
-from controller.vocabulary import FrameType, UnitType
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import FrameType, UnitType
 
 #: Slowest stream rate [Hz] (slower requests get this).
 MIN_RATE_HZ = 0.01
@@ -35,7 +35,7 @@ class MonitorServicer(pb_grpc.MonitorServicer):
         state, text = spec_a_state(snap)
         joints = [
             pb.UnitJointPositions(
-                unit=unit.value,
+                unit=unit.name,
                 position=view.unit_positions(snap, unit).tolist(),
             )
             for unit in UnitType

@@ -19,6 +19,7 @@ from controller import __version__
 from controller.contract.motion_specs import MotionSpec
 from controller.contract.snapshot import Snapshot
 from controller.conversions import ArgumentError
+from controller.errors import Refused
 from controller.gateway.grpc.base import (
     Context,
     alarm_msgs,
@@ -32,11 +33,11 @@ from controller.gateway.grpc.base import (
     side_arg,
     unit_arg,
 )
-from controller.gateway.grpc.replies import Code, Failure, SpecAState, spec_a_state
+from controller.gateway.grpc.replies import spec_a_state
 from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
-from controller.vocabulary import FrameType, RightLeft, UnitType
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import FrameType, ReturnCode, RightLeft, SpecAState, UnitType
 
 Range = tuple[float, float]
 
@@ -59,13 +60,13 @@ def require_ready(snap: Snapshot, sv_on_code: bool) -> None:
     """Spec A: motion only from Ready."""
     state, _ = spec_a_state(snap)
     if state in (SpecAState.UNPOWERED, SpecAState.SERVO_OFF):
-        code = Code.NOT_SV_ON_ERR if sv_on_code else Code.STATUS_ERR
-        raise Failure(code, "the servos are off: call servoOn first")
+        code = ReturnCode.NOT_SV_ON_ERR if sv_on_code else ReturnCode.STATUS_ERR
+        raise Refused(code, "the servos are off: call servoOn first")
     if state == SpecAState.ALARM:
-        raise Failure(Code.STATUS_ERR, "alarms are active: clearAlarms, then servoOn")
+        raise Refused(ReturnCode.STATUS_ERR, "alarms are active: clearAlarms, then servoOn")
     if state in (SpecAState.BUSY, SpecAState.PAUSE):
-        raise Failure(
-            Code.STATUS_ERR,
+        raise Refused(
+            ReturnCode.STATUS_ERR,
             f"the robot is {state.name.lower()}: this interface does not queue; wait for "
             "the motion to end, or stop it",
         )
@@ -236,7 +237,7 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         snap = self.ctx.snapshot()
         state, _ = spec_a_state(snap)
         if state in (SpecAState.BUSY, SpecAState.PAUSE):
-            raise Failure(Code.STATUS_ERR, "not while a motion runs: stop it or wait")
+            raise Refused(ReturnCode.STATUS_ERR, "not while a motion runs: stop it or wait")
         with self._settings:
             self.allowed, self.ranges = allowed, ranges
         if ignored:
@@ -463,7 +464,7 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         )
         reason = planner.dry_run(snap, q0, spec)
         if reason is not None:
-            raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
+            raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
         self.ctx.call("start", sv_on_code=False, spec=spec)
         return None
 
@@ -513,8 +514,8 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         except ArgumentError:
             raise
         except ValueError as exc:  # a finite but absurd target no time law can cover
-            raise Failure(
-                Code.CANNOT_REACH_TARGET_ERR, f"{target_field}: no path to it: {exc}"
+            raise Refused(
+                ReturnCode.CANNOT_REACH_TARGET_ERR, f"{target_field}: no path to it: {exc}"
             ) from None
         self.ctx.call("start", sv_on_code=False, spec=spec)
 

@@ -25,15 +25,15 @@ from controller.contract.motion_specs import (
     VehicleMoveSpec,
 )
 from controller.contract.snapshot import Snapshot
-from controller.gateway.grpc.replies import Code, Failure
+from controller.errors import Refused
 from controller.gateway.planning.robot_view import RobotView
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
-from controller.vocabulary import RightLeft
 from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
 from controller.qp.ik import WholeBodyIK
 from controller.qp.tasks import AxisTask, ControlPointTask, Task
+from controller.vocabulary import CoreState, ReturnCode, RightLeft
 
 Range = tuple[float, float]
 
@@ -52,7 +52,7 @@ class Planner:
     def base_q(self, snap: Snapshot, queued: bool) -> np.ndarray:
         """Configuration a new motion starts from: the measured one, or (queued behind
         running/queued motions) the planned end of the queue."""
-        idle = not snap.moving and snap.queue == 0 and snap.core_state == "ready"
+        idle = not snap.moving and snap.queue == 0 and snap.core_state == CoreState.READY
         if queued:
             if not idle and self.tail is not None:
                 return self.tail.copy()
@@ -92,7 +92,7 @@ class Planner:
         duration: float | None = None,
         label: str = "Cartesian move",
     ) -> tuple[CartesianMoveSpec, np.ndarray]:
-        """A checked straight-line (or arc) move; Failure(CANNOT_REACH_TARGET_ERR) if not."""
+        """A checked straight-line (or arc) move; Refused(CANNOT_REACH_TARGET_ERR) if not."""
         spec = CartesianMoveSpec(
             side=side,
             target=target.homogeneous.copy(),
@@ -114,7 +114,7 @@ class Planner:
             q_end = self.checker.last_q.copy()
             limits = self.checker.path_parameter_limits()
         if reason is not None:
-            raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
+            raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
         if math.isfinite(limits[0]):
             spec.path_limits = limits
         return spec, q_end
@@ -130,7 +130,7 @@ class Planner:
         hold_other: bool,
     ) -> tuple[np.ndarray, np.ndarray, tuple[RightLeft, ...]]:
         """IK solution of ``target`` under the mask and ranges: the configuration, the joints
-        a move there uses and the arms it must hold; Failure(CANNOT_REACH_TARGET_ERR) if none."""
+        a move there uses and the arms it must hold; Refused(CANNOT_REACH_TARGET_ERR) if none."""
         probe = CartesianMoveSpec(
             side=side,
             target=target.homogeneous.copy(),
@@ -145,7 +145,7 @@ class Planner:
             hold = other_side(side) if probe.hold_other else None
             q_goal, reason = self.checker.solve_pose(kin, side, target, setup, hold)
         if reason is not None:
-            raise Failure(Code.CANNOT_REACH_TARGET_ERR, reason)
+            raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
         return q_goal, np.flatnonzero(~setup.frozen), (() if hold is None else (hold,))
 
     def ptp_cartesian(
@@ -193,8 +193,8 @@ class Planner:
         hi = self.checker.q_max[joints]
         for name, value, a, b in zip(names, target, lo, hi, strict=True):
             if not a - 1e-9 <= value <= b + 1e-9:
-                raise Failure(
-                    Code.VALUE_ERR,
+                raise Refused(
+                    ReturnCode.VALUE_ERR,
                     f"{name}: target {_show(value, name, self.view)} is outside its limits "
                     f"[{_show(a, name, self.view)}, {_show(b, name, self.view)}]",
                 )
@@ -209,8 +209,8 @@ class Planner:
         if duration is not None:
             need = min_duration(np.abs(target - q0[joints]), v_lim, a)
             if duration + 1e-9 < need:
-                raise Failure(
-                    Code.VALUE_ERR,
+                raise Refused(
+                    ReturnCode.VALUE_ERR,
                     f"time: {duration:g} s is too short, the joints need at least {need:.3f} s",
                 )
             v = v_lim

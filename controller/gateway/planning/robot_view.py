@@ -55,7 +55,7 @@ class RobotView:
         return snap.q[self.hw_index]
 
     def unit_joint_names(self, unit: UnitType) -> tuple[str, ...]:
-        return self.robot.unit_joints(unit.value)
+        return self.robot.unit_joints(unit.name)
 
     def has_unit(self, unit: UnitType) -> bool:
         return bool(self.unit_joint_names(unit))
