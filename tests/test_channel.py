@@ -20,11 +20,17 @@ class FakeController:
 
     def __init__(self) -> None:
         self.calls: list[tuple[str, dict]] = []
+        self.slow_started = threading.Event()
+        self.release_slow = threading.Event()
 
     def submit(self, name: str, timeout: float = 5.0, **args: Any) -> Request:
         self.calls.append((name, args))
         request = Request(name, args)
-        if name == "refuse":
+        if name == "slow":  # like a servoOn waiting for the drives
+            self.slow_started.set()
+            assert self.release_slow.wait(30.0)
+            request.ok = True
+        elif name == "refuse":
             request.code, request.message = ReturnCode.STATUS_ERR, "not now"
         else:
             request.ok, request.value = True, {"echo": args}
@@ -93,6 +99,34 @@ def test_a_wrong_key_is_rejected(runtime: Path, server):
     with pytest.raises(ChannelError, match="did not accept our key"):
         intruder.call("echo", x=1)
     assert not fake.calls
+
+
+def test_a_slow_call_holds_up_no_other_caller(runtime: Path, server):
+    """A stop must not wait behind a slow command of another client (issue 9)."""
+    _, fake = server
+    client = CommandClient(runtime)
+    slow = threading.Thread(target=client.call, args=("slow",))
+    slow.start()
+    try:
+        assert fake.slow_started.wait(30.0)
+        # The slow call is still in the control process; this one gets through regardless.
+        assert client.call("stop") == (True, {"echo": {}}, "")
+        assert slow.is_alive()
+    finally:
+        fake.release_slow.set()
+        slow.join(30.0)
+        client.close()
+    assert [name for name, _ in fake.calls] == ["slow", "stop"]
+
+
+def test_an_unpicklable_argument_leaves_the_client_usable(runtime: Path, server):
+    client = CommandClient(runtime)
+    try:
+        with pytest.raises(Exception, match="pickle"):
+            client.call("echo", x=lambda: None)
+        assert client.call("echo", x=1) == (True, {"echo": {"x": 1}}, "")
+    finally:
+        client.close()
 
 
 def test_control_process_gone(runtime: Path, server):

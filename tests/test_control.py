@@ -56,7 +56,7 @@ def run_until_idle(c: Controller, limit: int = 5000) -> None:
 
 
 def read(c: Controller) -> snap.Snapshot:
-    r = snap.SnapshotReader(c.writer.path, len(c.hw.joint_names))
+    r = snap.SnapshotReader(c.publisher.writer.path, len(c.hw.joint_names))
     try:
         return r.read()
     finally:
@@ -223,6 +223,34 @@ def test_a_queued_motion_that_cannot_start_raises_an_alarm(ctl: Controller):
 
 
 # ----------------------------------------------------------------------------- pause, stop
+def test_urgent_commands_overtake_waiting_ones(ctl: Controller):
+    """stop/pause/abort/servo off run before every other command waiting for the loop."""
+    ready(ctl)
+    start = Request("start", {"spec": j1_move(ctl, 0.5)})
+    stop = Request("stop", {})
+    ctl.inbox.put(start)  # arrived first...
+    ctl.urgent.put(stop)  # ...but the stop runs first
+    order: list[str] = []
+    execute = ctl._execute
+
+    def spy(request: Request) -> None:
+        order.append(request.name)
+        execute(request)
+
+    ctl._execute = spy  # type: ignore[method-assign]
+    step(ctl)
+    assert order == ["stop", "start"]
+    assert start.ok and stop.ok and start.done.is_set() and stop.done.is_set()
+
+
+@pytest.mark.parametrize("name", ["stop", "pause", "abort", "servo_off"])
+def test_submit_routes_urgent_commands_to_their_own_queue(ctl: Controller, name: str):
+    ctl.submit(name, timeout=0.0)  # nobody steps: the request stays where submit put it
+    assert ctl.inbox.empty() and not ctl.urgent.empty()
+    ctl.submit("status", timeout=0.0)
+    assert not ctl.inbox.empty()
+
+
 def test_stop_from_idle_pause_goes_ready(ctl: Controller):
     ready(ctl)
     ctl.cmd_pause()

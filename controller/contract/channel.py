@@ -105,42 +105,54 @@ class CommandServer:
 
 
 class CommandClient:
-    """The gateway side; thread-safe (one request at a time on one connection)."""
+    """The gateway side; thread-safe. Each call uses a connection of its own (taken from a
+    pool of idle ones, opened when none is idle), so a slow command never holds up another
+    caller: a stop sent while a servoOn waits for the drives reaches the loop at once."""
 
     def __init__(self, runtime_dir: Path):
         runtime_dir = Path(runtime_dir)
         self._key = (runtime_dir / KEY_NAME).read_bytes()
         self._address = str(runtime_dir / SOCKET_NAME)
-        self._lock = threading.Lock()
-        self._conn: Connection | None = None
+        self._lock = threading.Lock()  # guards the pool only, never held during a call
+        self._idle: list[Connection] = []
+        self._closed = False
 
     def _connect(self) -> Connection:
-        if self._conn is None:
-            try:
-                self._conn = Client(self._address, family="AF_UNIX", authkey=self._key)
-            except OSError as exc:
-                raise ChannelError(f"control process not reachable: {exc}") from None
-            except AuthenticationError:
-                raise ChannelError(
-                    f"control process not reachable: {self._address} did not accept our key "
-                    "(another daemon's runtime directory?)"
-                ) from None
-        return self._conn
+        with self._lock:
+            if self._idle:
+                return self._idle.pop()
+        try:
+            return Client(self._address, family="AF_UNIX", authkey=self._key)
+        except OSError as exc:
+            raise ChannelError(f"control process not reachable: {exc}") from None
+        except AuthenticationError:
+            raise ChannelError(
+                f"control process not reachable: {self._address} did not accept our key "
+                "(another daemon's runtime directory?)"
+            ) from None
 
     def call(self, name: str, **args: Any) -> tuple[bool, Any, str]:
         """``(True, value, "")`` or ``(False, code, message)`` (code: a ReturnCode value)."""
+        conn = self._connect()
+        try:
+            conn.send((name, args))
+            reply: tuple[bool, Any, str] = conn.recv()
+        except (EOFError, OSError) as exc:
+            conn.close()
+            raise ChannelError(f"control process not reachable: {exc}") from None
+        except BaseException:
+            conn.close()  # e.g. an argument that cannot be pickled: the stream is unusable
+            raise
         with self._lock:
-            try:
-                conn = self._connect()
-                conn.send((name, args))
-                reply: tuple[bool, Any, str] = conn.recv()
-                return reply
-            except (EOFError, OSError) as exc:
-                self._conn = None
-                raise ChannelError(f"control process not reachable: {exc}") from None
+            if self._closed:
+                conn.close()
+            else:
+                self._idle.append(conn)
+        return reply
 
     def close(self) -> None:
         with self._lock:
-            if self._conn is not None:
-                self._conn.close()
-                self._conn = None
+            self._closed = True
+            idle, self._idle = self._idle, []
+        for conn in idle:
+            conn.close()
