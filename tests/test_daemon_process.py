@@ -23,9 +23,9 @@ from pathlib import Path
 import grpc
 import pytest
 
-from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import SpecAState as S
 
 REPO = Path(__file__).resolve().parents[1]
 EXIT_BOUND = 20.0  # s: "exits by itself", not a timing figure
@@ -271,6 +271,42 @@ def test_any_address_without_tls_and_token_refuses_to_start():
     assert "refusing to start" in d.log
     assert "TLS is required" in d.log and "token is required" in d.log
     assert "0.0.0.0:50551" in d.log
+
+
+def test_tcp_without_a_motion_token_warns_at_start():
+    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--check")
+    try:
+        assert d.wait_exit() == 0, d.log
+    finally:
+        d.kill()
+    assert re.search(r"level=warning .*without a motion token: every user", d.log), d.log
+
+
+def test_secrets_stay_private_in_an_open_runtime_dir(short_dir: Path):
+    """A runtime directory that already exists world-readable (issue 17.6): it is narrowed,
+    and the tokens are in no file of it (the gateway gets its configuration by a pipe)."""
+    runtime = short_dir / "run"
+    runtime.mkdir()
+    runtime.chmod(0o755)
+    secret = "motion-secret-7f3a"
+    d = _run(
+        "--hal", "ideal", "--listen", "127.0.0.1:0",
+        "--set", f"runtime_dir={runtime}", "--set", f"security.tokens.motion={secret}",
+    )  # fmt: skip
+    try:
+        d.wait_ready()
+        assert runtime.stat().st_mode & 0o777 == 0o750
+        assert re.search(r"level=warning .*runtime_dir .* had mode 0755", d.log), d.log
+        files = [p for p in runtime.iterdir() if p.is_file()]
+        assert files
+        for path in files:
+            assert path.stat().st_mode & 0o077 == 0, f"{path.name} is readable by others"
+            assert secret.encode() not in path.read_bytes(), f"{path.name} holds the token"
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0, d.log
+    finally:
+        d.kill()
+        shutil.rmtree(runtime, ignore_errors=True)
 
 
 def test_check_validates_only(tmp_path: Path):

@@ -149,6 +149,18 @@ def is_local(address: str) -> bool:
         return False  # a host name: may resolve to anything
 
 
+def security_warnings(cfg: DaemonConfig) -> list[str]:
+    """What is allowed but unsafe in this set-up (logged as warnings at start)."""
+    kind, _, _ = parse_listen(cfg.listen)
+    if kind == "tcp" and not cfg.security.tokens.motion:
+        return [
+            f"listening on TCP {cfg.listen} without a motion token: every user of this "
+            "machine can drive the robot (use a Unix socket with group permissions, as the "
+            "shipped systemd unit does, or set security.tokens.motion)"
+        ]
+    return []
+
+
 def security_problems(cfg: DaemonConfig) -> list[str]:
     """Why the daemon must refuse to start with this security set-up (empty: fine)."""
     problems = []

@@ -81,7 +81,7 @@ class Controller(Commands):
         self.urgent: queue.SimpleQueue[Request] = queue.SimpleQueue()
         self.inbox: queue.SimpleQueue[Request] = queue.SimpleQueue()
         self.publisher = SnapshotPublisher(
-            snapshot_path, self.core, hardware, self.loop.stats, rate_hz, queue_depth
+            snapshot_path, self.core, hardware, self.loop, rate_hz, queue_depth
         )
         self.started = 0
         self.finished = 0

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from controller.contract import snapshot as snap
 from controller.control.core import MotionCore
-from controller.control.loop import LoopStats
+from controller.control.loop import FixedRateLoop
 from controller.vocabulary import CoreState, RightLeft
 from hal.interface import HardwareInterface, HardwareState
 
@@ -29,13 +29,13 @@ class SnapshotPublisher:
         path: Path,
         core: MotionCore,
         hardware: HardwareInterface,
-        stats: LoopStats,
+        loop: FixedRateLoop,
         rate_hz: float,
         queue_depth: int,
     ):
         self.core = core
         self.hw = hardware
-        self.stats = stats
+        self.loop = loop  #: its ``stats`` may be replaced (e.g. by a CycleLog) after start
         self.writer = snap.SnapshotWriter(path, len(hardware.joint_names), queue_depth)
         self._stats_every = max(1, round(STATS_PERIOD * rate_hz))
         #: The original frame or a control-point offset changed since the last publish.
@@ -96,7 +96,7 @@ class SnapshotPublisher:
         self.frames_changed = False
 
     def _publish_stats(self) -> None:
-        stats = self.stats
+        stats = self.loop.stats
         v = self.writer.values
         if stats.cycles:
             s = stats.summary()

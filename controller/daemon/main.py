@@ -26,7 +26,12 @@ from pathlib import Path
 from typing import Any
 
 from controller.contract.channel import CommandServer
-from controller.contract.config import DaemonConfig, load_config, security_problems
+from controller.contract.config import (
+    DaemonConfig,
+    load_config,
+    security_problems,
+    security_warnings,
+)
 from controller.control.cycle_log import CycleLog
 from controller.control.process import Controller
 from controller.control.realtime import apply_realtime, restore
@@ -42,20 +47,58 @@ _log = logging.getLogger("imotiond")
 GATEWAY_START_TIMEOUT = 60.0
 
 
+class RuntimeDirError(RuntimeError):
+    """The runtime directory is open to other users and cannot be made private."""
+
+
+#: Mode bits a runtime directory must not have: anything for others, write for the group
+#: (the group may traverse it to reach a gRPC Unix socket, as under the systemd unit).
+UNSAFE_RUNTIME_BITS = 0o027
+
+
 def make_runtime_dir(cfg: DaemonConfig) -> Path:
+    """The runtime directory, private to the daemon's user (and readable by its group).
+
+    An existing directory that others could list or write is narrowed (with a warning); one
+    that cannot be narrowed (another owner) refuses the start.
+    """
     if cfg.runtime_dir is not None:
         path = Path(cfg.runtime_dir)
         path.mkdir(parents=True, exist_ok=True, mode=0o700)
+        mode = path.stat().st_mode & 0o777
+        if mode & UNSAFE_RUNTIME_BITS:
+            safe = mode & ~UNSAFE_RUNTIME_BITS
+            try:
+                os.chmod(path, safe)
+            except OSError as exc:
+                raise RuntimeDirError(
+                    f"runtime_dir {path} has mode {mode:04o} (others may list or write it) "
+                    f"and cannot be changed: {exc}"
+                ) from None
+            _log.warning(
+                "runtime_dir %s had mode %04o (others could list or write it): changed to %04o",
+                path,
+                mode,
+                safe,
+            )
         return path
     base = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
     return Path(tempfile.mkdtemp(prefix="imotiond-", dir=base))
+
+
+def _write_private(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` readable by the daemon's user only (0600, any umask)."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    os.fchmod(fd, 0o600)
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
 
 
 class Daemon:
     """The control side of imotiond, usable in-process (tests) or from :func:`main`."""
 
     def __init__(self, cfg: DaemonConfig):
-        from controller.gateway.process import CONFIG_NAME, JOINTS_NAME, SNAPSHOT_NAME
+        from controller.gateway.process import JOINTS_NAME, SNAPSHOT_NAME
 
         self.cfg = cfg
         self.runtime = make_runtime_dir(cfg)
@@ -76,8 +119,7 @@ class Daemon:
         if cfg.loop.stats_file is not None:
             loop = self.controller.loop
             loop.stats = CycleLog(loop.period, loop.stats.capacity)
-        (self.runtime / JOINTS_NAME).write_text(json.dumps(list(self.hw.joint_names)))
-        (self.runtime / CONFIG_NAME).write_text(cfg.model_dump_json())
+        _write_private(self.runtime / JOINTS_NAME, json.dumps(list(self.hw.joint_names)))
         self.commands = CommandServer(self.controller, self.runtime)
         self.commands.start()
         self.gateway: subprocess.Popen[str] | None = None
@@ -88,8 +130,13 @@ class Daemon:
     # ------------------------------------------------------------------ gateway
     def start_gateway_process(self) -> str:
         cmd = [sys.executable, "-m", "controller.gateway.process", "--runtime", str(self.runtime)]
-        self.gateway = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
-        assert self.gateway.stdout is not None
+        self.gateway = subprocess.Popen(
+            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+        )
+        assert self.gateway.stdin is not None and self.gateway.stdout is not None
+        # The configuration holds the tokens: a pipe, never a file in the runtime directory.
+        self.gateway.stdin.write(self.cfg.model_dump_json() + "\n")
+        self.gateway.stdin.close()
         line = _readline(self.gateway.stdout, GATEWAY_START_TIMEOUT)
         if not line.startswith("READY "):
             self.gateway.kill()
@@ -215,13 +262,15 @@ def main(argv: list[str] | None = None) -> int:
         for problem in problems:
             _log.error("refusing to start: %s", problem)
         return 2
+    for warning in security_warnings(cfg):
+        _log.warning("%s", warning)
     if args.check:
         print("configuration OK")
         return 0
     systemd.notify("STATUS=starting: loading the robot and the hardware layer")
     try:
         daemon = Daemon(cfg)
-    except (ConfigError, ValueError, OSError, RuntimeError) as exc:
+    except (ConfigError, ValueError, OSError, RuntimeError) as exc:  # RuntimeDirError too
         _log.error("cannot start: %s", exc)
         return 2
     signal.signal(signal.SIGTERM, daemon.request_shutdown)

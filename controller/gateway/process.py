@@ -36,7 +36,6 @@ from controller.rpc import imotion_pb2_grpc as pb_grpc
 
 _log = logging.getLogger("imotiond.gateway")
 
-CONFIG_NAME = "config.json"
 JOINTS_NAME = "joints.json"
 SNAPSHOT_NAME = "snapshot"
 
@@ -96,7 +95,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="imotion gRPC gateway (started by imotiond)")
     parser.add_argument("--runtime", type=Path, required=True)
     args = parser.parse_args(argv)
-    cfg = DaemonConfig.model_validate_json((args.runtime / CONFIG_NAME).read_text())
+    # The configuration (tokens included) comes through a pipe from imotiond, never through
+    # a file: nothing else on the machine can read it.
+    cfg = DaemonConfig.model_validate_json(sys.stdin.readline())
     setup_logging(cfg.log_level, "gateway")
     try:
         server, address, _ = start_gateway(cfg, args.runtime)
