@@ -26,6 +26,7 @@ from controller.contract.snapshot import SnapshotReader
 from controller.gateway.grpc.auth import TokenInterceptor
 from controller.gateway.grpc.base import Context
 from controller.gateway.grpc.jara import add_jara_servicers
+from controller.gateway.grpc.malformed import MalformedRequestInterceptor
 from controller.gateway.grpc.monitor import MonitorServicer
 from controller.gateway.grpc.spec_a import IntegratedMotionServicer
 from controller.gateway.planning.planner import Planner
@@ -79,10 +80,13 @@ def bind(server: grpc.Server, cfg: DaemonConfig) -> str:
 
 def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> tuple[grpc.Server, str, Context]:
     ctx = build_context(cfg, runtime_dir)
-    interceptor = TokenInterceptor(cfg.security.tokens)
+    tokens = TokenInterceptor(cfg.security.tokens)
+    # Tokens first: an unauthenticated caller learns nothing, not even that its bytes are bad.
+    interceptors: list[grpc.ServerInterceptor] = [tokens] if tokens.enabled else []
+    interceptors.append(MalformedRequestInterceptor())
     server = grpc.server(
         ThreadPoolExecutor(max_workers=cfg.workers, thread_name_prefix="grpc"),
-        interceptors=[interceptor] if interceptor.enabled else [],
+        interceptors=interceptors,
         maximum_concurrent_rpcs=cfg.workers * 8,
     )
     add_servicers(server, ctx)
