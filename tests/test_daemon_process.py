@@ -217,8 +217,11 @@ def test_unix_socket_config_file_set_overrides_sd_notify_and_sigint(short_dir: P
     assert text.index("READY=1") < text.index("STOPPING=1")
 
 
-def test_gateway_death_stops_the_daemon():
-    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250")
+def test_gateway_death_without_restarts_stops_the_daemon():
+    d = _run(
+        "--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250",
+        "--set", "gateway_restarts=0",
+    )  # fmt: skip
     try:
         d.wait_ready()
         (gateway,) = _children(d.proc.pid)
@@ -226,7 +229,33 @@ def test_gateway_death_stops_the_daemon():
         assert d.wait_exit() == 1, d.log
     finally:
         d.kill()
-    assert "the gateway process exited" in d.log
+    assert "the gateway process exited" in d.log and "shutting down" in d.log
+
+
+def test_a_killed_gateway_is_restarted_in_place():
+    """Issue 17.10: SIGKILL of the gateway: the loop stops the robot and starts a new gateway;
+    clients reconnect (to the new address when the port was chosen by the system)."""
+    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250")
+    try:
+        address = d.wait_ready()
+        channel, stub = _stub(address)
+        assert stub.ServoOn(pb.ServoOnRequest(), timeout=30.0).return_id.id == 0
+        channel.close()
+        (gateway,) = _children(d.proc.pid)
+        os.kill(gateway, signal.SIGKILL)
+        new_address = d.wait_line(r"gateway restarted, listening on (\S+?)\"").group(1)
+        assert d.proc.poll() is None
+        (new_gateway,) = _children(d.proc.pid)
+        assert new_gateway != gateway
+        channel, stub = _stub(new_address)
+        state = stub.GetState(pb.GetStateRequest(), timeout=30.0)
+        assert state.status_id == S.READY  # servos still on, robot held
+        channel.close()
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0, d.log
+    finally:
+        d.kill()
+    assert "stopping motion, restarting it" in d.log
 
 
 # ----------------------------------------------------------------------------- refusals

@@ -93,6 +93,10 @@ class DaemonConfig(_Strict):
     #: Where the gRPC gateway runs: its own process (default; client load cannot disturb the
     #: loop) or a thread of the control process (for comparison in tools/bench_clients.py).
     gateway: Literal["process", "thread"] = "process"
+    #: A gateway process that dies is restarted in place (the loop holds the robot still
+    #: meanwhile) at most this many times within a minute; beyond, the daemon shuts down
+    #: (exit 1). 0: never restart.
+    gateway_restarts: int = Field(default=3, ge=0, le=100)
     #: gRPC worker threads of the gateway.
     workers: int = Field(default=16, ge=2, le=256)
     security: SecurityConfig = SecurityConfig()

@@ -201,6 +201,7 @@ def _supervise(daemon: Daemon) -> None:
     interval = min(0.5, period / 3) if period else 0.5
     last_cycle = -1
     last_status = ""
+    restarts: list[float] = []
     ctl = daemon.controller
     while not ctl.shutdown_requested.is_set():
         time.sleep(interval)
@@ -214,9 +215,43 @@ def _supervise(daemon: Daemon) -> None:
             last_status = status
         if not daemon.gateway_alive() and not ctl.shutdown_requested.is_set():
             # (during a shutdown close() ends the gateway itself: not an error)
-            _log.error("the gateway process exited: shutting down")
-            daemon.exit_code = 1
-            daemon.request_shutdown()
+            _restart_gateway(daemon, restarts)
+
+
+#: The window in which ``gateway_restarts`` restarts are allowed [s].
+RESTART_WINDOW = 60.0
+
+
+def _restart_gateway(daemon: Daemon, restarts: list[float]) -> None:
+    """The gateway died: stop any motion (no client can stop it now), then start a new
+    gateway, unless it died too often lately: then shut down (exit 1)."""
+    ctl = daemon.controller
+    code = daemon.gateway.returncode if daemon.gateway is not None else None
+    now = time.monotonic()
+    restarts[:] = [t for t in restarts if now - t < RESTART_WINDOW]
+    if len(restarts) >= daemon.cfg.gateway_restarts:
+        _log.error(
+            "the gateway process exited (code %s), %d restart(s) in the last %g s: shutting down",
+            code,
+            len(restarts),
+            RESTART_WINDOW,
+        )
+        daemon.exit_code = 1
+        daemon.request_shutdown()
+        return
+    _log.error("the gateway process exited (code %s): stopping motion, restarting it", code)
+    ctl.submit("stop", timeout=5.0)
+    restarts.append(now)
+    systemd.notify("STATUS=restarting the gateway")
+    try:
+        address = daemon.start_gateway_process()
+    except Exception as exc:
+        _log.error("the gateway did not restart: %s: shutting down", exc)
+        daemon.exit_code = 1
+        daemon.request_shutdown()
+        return
+    _log.warning("gateway restarted, listening on %s", address)
+    systemd.notify(f"STATUS=ready on {address} (gateway restarted)")
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
