@@ -439,6 +439,31 @@ def test_stop_from_pause_drops_the_motion(d: TestDaemon):
     np.testing.assert_allclose(joints(d, pb.RIGHT_ARM), held, atol=1e-9)
 
 
+def test_pause_stop_resume_states_are_exact(d: TestDaemon):
+    """Issue 16.13: a fully paused robot is not moving; stop in Pause is Ready at once (the
+    answer comes after the snapshot shows it); resume then changes nothing; the texts say
+    "paused", not "pause" or "moves"."""
+    start_long_motion(d)
+    ok(d.spec_a.Pause(pb.PauseRequest()))
+    wait_state(d, S.PAUSE)
+    wait_at_rest(d)
+    assert not moving(d)  # paused and still
+    refused = d.spec_a.ResetOriginalFrame(pb.ResetOriginalFrameRequest())
+    assert code(refused) == ReturnCode.STATUS_ERR
+    assert "paused" in refused.return_id.comment and "moves" not in refused.return_id.comment
+    move = pb.MoveUnitRelRequest(
+        unit=pb.RIGHT_ARM, rel_pos=[1, 0, 0, 0, 0, 0, 0], speed=[4.0], accel=[20.0]
+    )
+    busy = d.spec_a.MoveUnitRel(move)
+    assert code(busy) == ReturnCode.STATUS_ERR and "the robot is paused" in busy.return_id.comment
+    ok(d.spec_a.Stop(pb.StopRequest()))
+    assert d.state() == S.READY and not moving(d)  # at once, no settling time
+    ok(d.spec_a.Resume(pb.ResumeRequest()))
+    for _ in range(5):
+        assert d.state() == S.READY and not moving(d)
+        wait_cycles(d, 5)
+
+
 def test_stop_decelerates_to_ready(d: TestDaemon):
     start_long_motion(d)
     wait_cycles(d, 50)

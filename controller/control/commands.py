@@ -138,6 +138,12 @@ class Commands:
 
     # ------------------------------------------------------------------ settings
     def _require_still(self, what: str) -> None:
+        if self.core.state == CoreState.PAUSED and self.core.motion is not None:
+            raise Refused(
+                ReturnCode.STATUS_ERR,
+                f"{what} is not allowed while a motion is paused: stop it (or resume it and "
+                "wait for its end) first",
+            )
         if self.core.is_moving or self.queue:
             raise Refused(ReturnCode.STATUS_ERR, f"{what} is not allowed while the robot moves")
 

@@ -167,10 +167,17 @@ class MotionCore:
             self.state = CoreState.BUSY
 
     def stop(self) -> None:
-        """Decelerate on the path, drop the rest (also from PAUSED)."""
+        """Decelerate on the path, drop the rest. From PAUSED the robot already stands
+        still: the motion ends at once (Ready in the same cycle)."""
         with self._lock:
-            if self.motion is not None:
-                self.motion.stop()
+            if self.motion is None:
+                return
+            if self.state == CoreState.PAUSED:
+                self.motion = None
+                self._hold()
+                self.state = CoreState.READY
+                return
+            self.motion.stop()
 
     def pause(self) -> None:
         with self._lock:
@@ -262,7 +269,9 @@ class MotionCore:
 
     @property
     def is_moving(self) -> bool:
-        return self.motion is not None or bool(self._gripper_motion)
+        """A motion runs (or a gripper moves). A motion fully paused does not move."""
+        running = self.motion is not None and self.state != CoreState.PAUSED
+        return running or bool(self._gripper_motion)
 
     # --------------------------------------------------------------------- cycle
     def cycle(self) -> None:

@@ -67,8 +67,8 @@ def require_ready(snap: Snapshot, sv_on_code: bool) -> None:
     if state in (SpecAState.BUSY, SpecAState.PAUSE):
         raise Refused(
             ReturnCode.STATUS_ERR,
-            f"the robot is {state.name.lower()}: this interface does not queue; wait for "
-            "the motion to end, or stop it",
+            f"the robot is {'paused' if state == SpecAState.PAUSE else 'busy'}: this "
+            "interface does not queue; wait for the motion to end, or stop it",
         )
 
 
