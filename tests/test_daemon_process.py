@@ -25,6 +25,7 @@ import pytest
 
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import CoreState
 from controller.vocabulary import SpecAState as S
 
 REPO = Path(__file__).resolve().parents[1]
@@ -389,7 +390,7 @@ def test_gateway_stops_when_imotiond_is_killed():
 class _FakeCore:
     def __init__(self) -> None:
         self.cycles = 0
-        self.state = type("St", (), {"value": "ready"})()
+        self.state = CoreState.READY
         self.alarms: list[object] = []
 
 
