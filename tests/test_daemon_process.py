@@ -403,6 +403,8 @@ class _FakeDaemon:
         self.controller.shutdown_requested = threading.Event()
         self.exit_code = 0
         self.alive = True
+        self.gateway = None
+        self.cfg = type("Cfg", (), {"gateway_restarts": 0})()  # a dead gateway ends it
 
     def gateway_alive(self) -> bool:
         return self.alive
