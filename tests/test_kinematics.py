@@ -304,7 +304,7 @@ def test_smartpal_lumbar_ry_is_the_sum_of_both_pitch_joints():
 def test_unit_indices_follow_spec_order(robot_id: str):
     kin = kinematics(robot_id)
     for unit in UnitType:
-        names = kin.robot.unit_joints(unit.value)
+        names = kin.robot.unit_joints(unit)
         idx = kin.unit_indices(unit)
         assert [kin.joint_names[i] for i in idx] == list(names)
     grippers = set(kin.robot.gripper_joints)

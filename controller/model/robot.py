@@ -10,6 +10,7 @@ from config import ROBOTS_DIR
 from controller.model.model_source import ModelSource, load_model_source
 from controller.model.profile import RobotProfile, load_profile
 from controller.model.yaml_source import ConfigError, read_yaml
+from controller.vocabulary import UnitType
 
 
 @dataclass(frozen=True)
@@ -53,9 +54,11 @@ class Robot:
     def mjcf_path(self) -> Path:
         return self.directory / "robot.xml"
 
-    def unit_joints(self, unit: str) -> tuple[str, ...]:
-        """Joint names of a unit in spec order (empty when the robot lacks the unit)."""
-        return self.profile.units.get(unit, ())  # type: ignore[call-overload]
+    def unit_joints(self, unit: UnitType | str) -> tuple[str, ...]:
+        """Joint names of a unit (a UnitType or its name) in spec order (empty when the robot
+        lacks the unit)."""
+        name = unit.name if isinstance(unit, UnitType) else UnitType[unit].name
+        return self.profile.units.get(name, ())  # type: ignore[call-overload]
 
     @property
     def gripper_joints(self) -> tuple[str, ...]:
