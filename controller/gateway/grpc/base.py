@@ -110,7 +110,7 @@ def unit_arg(view: RobotView, value: int, name: str = "unit") -> UnitType:
         raise ArgumentError(f"{name}: {value} is not a UnitType (0..3)")
     unit = UnitType[names[value]]
     if not view.has_unit(unit):
-        raise ArgumentError(f"{name}: this robot has no {unit.value} unit")
+        raise ArgumentError(f"{name}: this robot has no {unit.name} unit")
     return unit
 
 
