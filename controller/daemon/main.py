@@ -32,6 +32,7 @@ from controller.contract.config import (
     security_problems,
     security_warnings,
 )
+from controller.control.blackbox import BlackBoxRing
 from controller.control.cycle_log import CycleLog
 from controller.control.process import Controller
 from controller.control.realtime import apply_realtime, restore
@@ -98,7 +99,7 @@ class Daemon:
     """The control side of imotiond, usable in-process (tests) or from :func:`main`."""
 
     def __init__(self, cfg: DaemonConfig):
-        from controller.gateway.process import JOINTS_NAME, SNAPSHOT_NAME
+        from controller.gateway.process import BLACKBOX_NAME, JOINTS_NAME, SNAPSHOT_NAME
 
         self.cfg = cfg
         self.runtime = make_runtime_dir(cfg)
@@ -116,6 +117,13 @@ class Daemon:
             cfg.loop.solver,
         )
         self.controller.stop_timeout = cfg.stop_timeout_s
+        if cfg.blackbox.dir is not None:
+            self.controller.blackbox = BlackBoxRing(
+                self.runtime / BLACKBOX_NAME,
+                len(self.hw.joint_names),
+                cfg.loop.rate_hz,
+                cfg.blackbox.seconds + cfg.blackbox.after_s,
+            )
         if cfg.loop.stats_file is not None:
             loop = self.controller.loop
             loop.stats = CycleLog(loop.period, loop.stats.capacity)
