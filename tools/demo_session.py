@@ -494,7 +494,7 @@ def tracking(samples: list[Sample], phases: list[Phase]) -> dict[str, Any]:
 
 
 def write_plot(path: Path, samples: list[Sample], phases: list[Phase]) -> dict[str, float]:
-    from demo_plot import Panel, Series, sheet
+    from demo_plot import Panel, Series, save_sheet
 
     t = np.array([s.t for s in samples])
     bands = [(ph.label.split(" ")[0], ph.start, ph.end) for ph in phases]
@@ -525,7 +525,7 @@ def write_plot(path: Path, samples: list[Sample], phases: list[Phase]) -> dict[s
             x_range=(float(t[0]), float(t[-1])) if t.size else None,
         )
     )
-    sheet(panels).save(path)
+    save_sheet(panels, path)
     return worst
 
 
