@@ -56,6 +56,24 @@ def _joint_series(rec: Recording, topic: str) -> tuple[np.ndarray, list[str], np
     return t, names, q
 
 
+#: Black-box states in which the drives do not follow the command.
+UNFOLLOWED = ("servo off", "alarm")
+
+
+def _mark_alarm(rec: Recording, axes: Any, t0: float) -> None:
+    """A vertical line at the alarm of a black-box file (metadata ``alarm``)."""
+    text = rec.metadata.get("alarm", {}).get("time")
+    if not text:
+        return
+    from datetime import datetime
+
+    at = datetime.fromisoformat(text).timestamp() - t0
+    for row in axes:
+        for ax in row:
+            if ax.has_data():
+                ax.axvline(at, color="red", lw=1.0, alpha=0.6)
+
+
 def _scale(kind: str) -> tuple[float, str]:
     return (1e3, "mm") if kind == "prismatic" else (180.0 / math.pi, "deg")
 
@@ -89,6 +107,7 @@ def plot_joints(rec: Recording, path: Path) -> Path | None:
         ax.tick_params(labelsize=7)
     for k in range(len(names), rows * cols):
         axes[k // cols][k % cols].axis("off")
+    _mark_alarm(rec, axes, t0)
     axes[0][0].legend(fontsize=7)
     fig.suptitle("joints vs limits (red: position limits); time [s]")
     return _save(fig, path)
@@ -102,16 +121,26 @@ def plot_tracking(rec: Recording, path: Path) -> Path | None:
     limits = metadata_limits(rec)
     scales = np.array([_scale(limits.get(n, {}).get("kind", "revolute"))[0] for n in names])
     err = (q_cmd - q) * scales
+    # Servo off or in alarm the drives do not follow the command: no tracking error then.
+    states = [c[1].get("state") for c in rec.messages("/blackbox/cycle")]
+    if len(states) == len(err):
+        err[np.array([s in UNFOLLOWED for s in states])] = np.nan
     fig, axes = _figure(2, 1, 3.0)
     fig.set_size_inches(11, 6)
-    t = t - t[0]
-    worst = np.argsort(-np.abs(err).max(axis=0))[:8]
+    t0 = t[0]
+    t = t - t0
+    worst = np.argsort(-np.nan_to_num(np.abs(err)).max(axis=0))[:8]
     for k in worst:
         axes[0][0].plot(t, err[:, k], label=names[k], lw=1.0)
     axes[0][0].set_ylabel("commanded - measured [deg, mm]")
-    axes[0][0].set_title("tracking error per joint (the 8 largest)")
+    axes[0][0].set_title("tracking error per joint (the 8 largest; none while servo off or "
+                         "in alarm)")  # fmt: skip
     axes[0][0].legend(fontsize=7, ncol=4)
-    axes[1][0].plot(t, np.abs(err).max(axis=1), color="black", lw=1.0)
+    largest = np.full(len(t), np.nan)
+    rows = ~np.isnan(err).all(axis=1)
+    largest[rows] = np.nanmax(np.abs(err[rows]), axis=1)
+    axes[1][0].plot(t, largest, color="black", lw=1.0)
+    _mark_alarm(rec, axes, t0)
     axes[1][0].set_ylabel("largest |error| [deg, mm]")
     axes[1][0].set_xlabel("time [s]")
     return _save(fig, path)
@@ -131,7 +160,8 @@ def plot_timing(rec: Recording, path: Path) -> Path | None:
             y = np.array([np.nan if c[1].get(key) is None else c[1][key] for c in cycles])
             ax.plot(t, y, lw=0.8)
             ax.set_ylabel(label)
-        axes[0][0].set_title("loop timing, every cycle")
+        axes[0][0].set_title("loop timing, every cycle (red: the alarm)")
+        _mark_alarm(rec, axes, float(cycles[0][0]))
     else:
         loop = rec.messages("/loop")
         if not loop:
