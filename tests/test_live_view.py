@@ -7,8 +7,10 @@ one, the URDF parameter, the asset handler, and that the transforms follow a mov
 
 from __future__ import annotations
 
+import signal
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -180,3 +182,30 @@ def test_remote_address_needs_an_explicit_setting() -> None:
     cfg = load_config(None, {"view.listen": "0.0.0.0:8765", "view.allow_remote": True})
     assert not security_problems(cfg)
     assert not security_problems(load_config(None, {"view.listen": "127.0.0.1:8765"}))
+
+
+def test_imotiond_serves_the_view_from_its_gateway_process(tmp_path: Path) -> None:
+    from tests.test_daemon_process import Imotiond
+
+    d = Imotiond("--robot", "pa10", "--hal", "ideal", "--listen", "127.0.0.1:0",
+                 "--set", "realtime.enabled=false", "--set", "view.listen=127.0.0.1:0",
+                 "--set", f"blackbox.dir={tmp_path}")  # fmt: skip
+    try:
+        url = d.wait_line(r"live view on (ws://127\.0\.0\.1:\d+)").group(1)
+        assert "proc=gateway" in next(line for line in d.lines if "live view on" in line)
+        with LiveViewClient(url) as c:
+            assert set(c.topics()) == TOPICS
+            urdf = c.parameters("/robot_description")["/robot_description"]
+            assert '<robot name="pa10">' in urdf
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0
+    finally:
+        d.kill()
+
+
+def test_imotiond_refuses_a_remote_view_without_allow_remote() -> None:
+    from tests.test_daemon_process import Imotiond
+
+    d = Imotiond("--robot", "pa10", "--hal", "ideal", "--set", "view.listen=0.0.0.0:0", "--check")
+    assert d.wait_exit() == 2
+    assert "view.listen" in d.log and "no authentication" in d.log

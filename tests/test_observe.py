@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from controller.cli.main import main
-from controller.client.recording import read_mcap
+from controller.client.recording import metadata_limits, read_mcap
 from controller.gateway.process import Observers, start_observers
 from controller.model.alarms import AlarmCode
 from tests.daemon_support import TestDaemon
@@ -51,6 +51,9 @@ def test_record_writes_stream_state_to_mcap(
     assert rec.messages("/loop")[-1][1]["cycle"] > 0
     assert any("state:" in m[1]["message"] for m in rec.messages("/alarms"))
     assert rec.metadata["imotion"]["source"] == "StreamState"
+    limits = metadata_limits(rec)  # the arms' soft joint limits, for the plots
+    assert limits["RIGHT_ARM/1"]["lower"] < 0.0 < limits["RIGHT_ARM/1"]["upper"]
+    assert "LEFT_ARM/7" in limits
 
 
 def test_plot_of_a_recording_and_of_a_black_box(

@@ -16,6 +16,7 @@ from typing import Any
 from urllib.parse import quote
 
 from controller.client.client import Client
+from controller.client.errors import ClientError
 
 DEFAULT_VIEW_URL = "ws://127.0.0.1:8765"
 FOXGLOVE_APP = "https://app.foxglove.dev/~/view?ds=foxglove-websocket&ds.url="
@@ -26,13 +27,34 @@ def _finite_positive(name: str, value: float | None) -> None:
         raise ValueError(f"{name} must be a finite number > 0, got {value}")
 
 
+def arm_limits(client: Client) -> dict[str, dict[str, Any]]:
+    """JARA soft joint limits of each arm the robot has, by recorded name [rad]."""
+    out: dict[str, dict[str, Any]] = {}
+    for side, unit in (("RIGHT", "RIGHT_ARM"), ("LEFT", "LEFT_ARM")):
+        try:
+            result = client.arm(side).getSoftLimitJoint()
+        except ClientError:
+            continue
+        if not result.ok:  # e.g. no left arm
+            continue
+        for k, limit in enumerate(result[1]):
+            out[f"{unit}/{k + 1}"] = {
+                "kind": "revolute",
+                "lower": math.radians(limit.lower),
+                "upper": math.radians(limit.upper),
+            }
+    return out
+
+
 def record(client: Client, path: Path, seconds: float | None, rate: float, address: str
            ) -> dict[str, Any]:  # fmt: skip
     """Record StreamState at ``rate`` [Hz] for ``seconds`` (None: until Ctrl-C)."""
     from controller.client.recording import Recorder
 
     start = time.monotonic()
-    with Recorder(path, {"address": address, "rate_hz": f"{rate:g}"}) as rec:
+    limits = json.dumps(arm_limits(client))
+    meta = {"address": address, "rate_hz": f"{rate:g}", "limits": limits}
+    with Recorder(path, meta) as rec:
         stream = client.monitor.stream(rate)
         try:
             for sample in stream:
