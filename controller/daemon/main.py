@@ -132,6 +132,7 @@ class Daemon:
         self.commands.start()
         self.gateway: subprocess.Popen[str] | None = None
         self._server: Any = None
+        self._observers: Any = None  #: live view and black-box writer (gateway thread only)
         self.address: str | None = None
         self.exit_code = 0
 
@@ -154,9 +155,10 @@ class Daemon:
 
     def start_gateway_thread(self) -> str:
         """The gateway inside this process (comparison only: shares the loop's GIL)."""
-        from controller.gateway.process import start_gateway
+        from controller.gateway.process import start_gateway, start_observers
 
-        self._server, self.address, _ = start_gateway(self.cfg, self.runtime)
+        self._server, self.address, ctx = start_gateway(self.cfg, self.runtime)
+        self._observers = start_observers(self.cfg, self.runtime, ctx)
         assert self.address is not None
         return self.address
 
@@ -172,6 +174,8 @@ class Daemon:
         self.controller.shutdown_requested.set()
 
     def close(self) -> None:
+        if self._observers is not None:
+            self._observers.close()
         if self._server is not None:
             self._server.stop(0)
         if self.gateway is not None and self.gateway.poll() is None:
