@@ -52,6 +52,8 @@ def test_quick_session_runs_and_writes_its_outputs(tmp_path: Path) -> None:
     assert figures["vehicle_held_hand_error_mm"] < 1.0
     assert figures["paused_line_end_error_mm"] < 1.0
     assert (tmp_path / "joints.png").stat().st_size > 10_000
+    assert (tmp_path / "session.mcap").stat().st_size > 1000
+    assert (tmp_path / "session-joints.png").stat().st_size > 10_000
     assert summary["frames"] >= 5
     assert (tmp_path / "frames" / "frame_000.png").is_file()
     assert (tmp_path / "frames.png").is_file()

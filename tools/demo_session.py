@@ -16,6 +16,9 @@ ReturnID and every state change (Monitor.StreamState) is printed. Writes to ``--
     frames.png             a contact sheet of the frames
     joints.png             joint angles per unit over time, and tracking (deviation of the
                            hand from the commanded line; held hands during CP-hold moves)
+    session.mcap           the state stream as recorded by ``imotion record`` (MCAP)
+    session-joints.png     ``imotion plot session.mcap``: joints vs limits, loop timing
+    session-timing.png
     session.json           ReturnIDs, state changes, tracking figures
     imotiond.log           the daemon's log
 
@@ -48,6 +51,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import grpc
 import numpy as np
 
+from controller.cli.plot import plot_file
+from controller.client.convert import from_message
+from controller.client.recording import Recorder as McapRecorder
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 
@@ -174,7 +180,10 @@ class Phase:
 class Recorder:
     """Monitor.StreamState in a thread: stores samples, prints state and alarm changes."""
 
-    def __init__(self, channel: grpc.Channel, rate_hz: float, t0: float):
+    def __init__(
+        self, channel: grpc.Channel, rate_hz: float, t0: float, mcap: McapRecorder | None = None
+    ):
+        self.mcap = mcap  #: also written here, as ``imotion record`` does
         self.samples: list[Sample] = []
         self.changes: list[dict[str, Any]] = []
         self._stream = pb_grpc.MonitorStub(channel).StreamState(
@@ -191,6 +200,8 @@ class Recorder:
             for msg in self._stream:
                 s = to_sample(msg, time.monotonic() - self._t0)
                 self.samples.append(s)
+                if self.mcap is not None:
+                    self.mcap.add(from_message(msg), time.time())
                 if s.status != last_state:
                     old = STATES.get(last_state, "-") if last_state is not None else "-"
                     new = STATES.get(s.status, hex(s.status))
@@ -218,6 +229,9 @@ class Recorder:
     def close(self) -> None:
         self._stream.cancel()
         self._thread.join(2.0)
+        if self.mcap is not None:
+            self.mcap.close()
+            self.mcap = None
 
 
 def to_sample(msg: Any, t: float) -> Sample:
@@ -494,7 +508,7 @@ def tracking(samples: list[Sample], phases: list[Phase]) -> dict[str, Any]:
 
 
 def write_plot(path: Path, samples: list[Sample], phases: list[Phase]) -> dict[str, float]:
-    from demo_plot import Panel, Series, sheet
+    from demo_plot import Panel, Series, save_sheet
 
     t = np.array([s.t for s in samples])
     bands = [(ph.label.split(" ")[0], ph.start, ph.end) for ph in phases]
@@ -525,7 +539,7 @@ def write_plot(path: Path, samples: list[Sample], phases: list[Phase]) -> dict[s
             x_range=(float(t[0]), float(t[-1])) if t.size else None,
         )
     )
-    sheet(panels).save(path)
+    save_sheet(panels, path)
     return worst
 
 
@@ -584,7 +598,7 @@ def main() -> int:
         daemon.wait_ready()
         log(f"imotiond answers on {daemon.address} after {time.monotonic() - t_start:.1f} s")
         t0 = time.monotonic()
-        recorder = Recorder(daemon.channel, 50.0, t0)
+        recorder = Recorder(daemon.channel, 50.0, t0, McapRecorder(out / "session.mcap"))
         recorder.latest()
         session = Session(daemon.channel, recorder, t0)
         figures = run_script(session, args.quick)
@@ -595,6 +609,8 @@ def main() -> int:
         log(f"\nwrote {out / 'joints.png'}")
         for label, mm in worst.items():
             log(f"  {label}: max deviation {mm:.2f} mm")
+        plots = plot_file(out / "session.mcap", out)
+        log(f"wrote {out / 'session.mcap'} and {', '.join(p.name for p in plots)}")
         n_frames = 0
         if not args.no_frames:
             every = 1.0 if args.quick else 0.5

@@ -5,6 +5,7 @@
     imotion [global options] dual OPERATION [...]            JARA_ARM_DUAL
     imotion [global options] watch [--rate HZ] [--once]      live state view
     imotion list                                             every operation and its arguments
+    imotion record FILE.mcap [--seconds N] | plot FILE.mcap | view   see controller/cli/observe.py
 
 Arguments follow the request fields of the contract (see controller/cli/arguments.py and
 docs/client.md); exit codes are listed in controller/cli/output.py. Any error prints one line
@@ -22,7 +23,7 @@ from typing import Any, NoReturn
 
 from rich.console import Console
 
-from controller.cli import arguments, output, watch
+from controller.cli import arguments, observe, output, watch
 from controller.cli.arguments import CliOperation
 from controller.cli.wait import Waiter, is_motion
 from controller.client.client import DEFAULT_ADDRESS, DEFAULT_CONNECT_TIMEOUT, Client
@@ -115,6 +116,9 @@ def _command_list() -> str:
     lines += [
         f"  {PROG} watch [--rate HZ] [--once]   live view of state, joints, poses, alarms",
         f"  {PROG} list                         every operation with its arguments",
+        f"  {PROG} record FILE.mcap [--seconds N] record the state stream to MCAP",
+        f"  {PROG} plot FILE.mcap               PNG plots of a recording or black-box file",
+        f"  {PROG} view [--url URL]             check the live view, print how to open it",
         f"  {PROG} OPERATION --help              arguments of one operation, with units",
         "",
         "exit status: 0 OK; 11..16 ReturnID NG, STATUS_ERR, VALUE_ERR, NOT_SV_ON_ERR,",
@@ -193,6 +197,51 @@ def run_watch(rest: list[str], ns: argparse.Namespace) -> int:
         return watch.run(client, ns.rate, ns.once, Console())
 
 
+def run_observe(command: str, rest: list[str], ns: argparse.Namespace) -> int:
+    """record, plot, view (controller/cli/observe.py)."""
+    parser = Parser(prog=f"{PROG} {command}", description=observe.__doc__, allow_abbrev=False,
+                    formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    add_global_options(parser, suppress=True)
+    {"record": observe.add_record_arguments, "plot": observe.add_plot_arguments,
+     "view": observe.add_view_arguments}[command](parser)  # fmt: skip
+    parser.parse_intermixed_args(rest, namespace=ns)
+    try:
+        if command == "record":
+            observe._finite_positive("--seconds", ns.seconds)
+            observe._finite_positive("--rate", ns.rate)
+        if command == "view":
+            observe._finite_positive("--timeout", ns.timeout)
+    except ValueError as exc:
+        raise UsageError(f"{PROG} {command}: {exc}") from None
+    if command == "record":
+        with connect(ns) as client:
+            data = observe.record(client, ns.file, ns.seconds, ns.rate, ns.address)
+        lines = [f"recorded {data['samples']} samples in {data['seconds']:.1f} s to {ns.file}"]
+    elif command == "plot":
+        if not ns.file.is_file():
+            raise UsageError(f"{PROG} plot: {ns.file}: no such file")
+        try:
+            from controller.cli.plot import plot_file
+
+            written = plot_file(ns.file, ns.out)
+        except ImportError as exc:
+            raise UsageError(f"{PROG} plot needs the plot extra "
+                             f"(pip install 'imotion[plot]'): {exc}") from None  # fmt: skip
+        except Exception as exc:  # an unreadable or foreign file: one line, no traceback
+            raise UsageError(f"{PROG} plot: {ns.file}: cannot read it: {exc}") from None
+        data = {"file": str(ns.file), "written": [str(p) for p in written]}
+        lines = [f"wrote {p}" for p in written] or ["nothing to plot in this file"]
+    else:
+        try:
+            data = observe.view_info(ns.url, ns.timeout, ns.listen)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise UsageError(f"{PROG} view: cannot open {ns.url}: {exc} (is view.listen set "
+                             "in the daemon's configuration?)") from None  # fmt: skip
+        lines = observe.view_lines(data)
+    observe.print_result(data, ns.json, lines)
+    return 0
+
+
 def run_operation(group: str, side: RightLeft | None, op: CliOperation, rest: list[str],
                   ns: argparse.Namespace) -> int:  # fmt: skip
     label = {"integrated": op.name, "dual": f"dual {op.name}"}.get(group)
@@ -251,6 +300,8 @@ def run(argv: Sequence[str] | None) -> int:
         return print_list()
     if command == "watch":
         return run_watch(rest, ns)
+    if command in ("record", "plot", "view"):
+        return run_observe(command, rest, ns)
     if command == "arm":
         if not rest:
             raise UsageError(f"{PROG} arm: missing RIGHT|LEFT")

@@ -76,6 +76,36 @@ class MonitorConfig(_Strict):
     max_streams: int = Field(default=8, ge=1, le=64)
 
 
+class ViewConfig(_Strict):
+    """Live view: a Foxglove-protocol WebSocket server in the gateway process."""
+
+    #: host:port to serve on (port 0: any free port, logged); None: no live view.
+    listen: str | None = None
+    #: Messages per second on every channel [Hz].
+    rate_hz: float = Field(default=50.0, gt=0.0, le=1000.0)
+    #: Serve on an address other than loopback. The Foxglove protocol has no authentication:
+    #: anyone who reaches the port sees the robot (it cannot command it).
+    allow_remote: bool = False
+
+    @field_validator("listen")
+    @classmethod
+    def _listen(cls, value: str | None) -> str | None:
+        if value is not None and parse_listen(value)[0] != "tcp":
+            raise ValueError("the live view listens on host:port (no Unix socket)")
+        return value
+
+
+class BlackBoxConfig(_Strict):
+    """Black box: the last seconds of every cycle, written to MCAP on every alarm."""
+
+    #: Directory for the files (created if missing); None: no black box.
+    dir: Path | None = None
+    #: Seconds of cycles kept before an alarm [s].
+    seconds: float = Field(default=10.0, gt=0.0, le=120.0)
+    #: Seconds of cycles after the alarm added to the file [s].
+    after_s: float = Field(default=0.5, ge=0.0, le=10.0)
+
+
 class DaemonConfig(_Strict):
     robot: str = "smartpal5"
     hal: Literal["sim", "hil", "can", "ideal"] = "sim"
@@ -102,6 +132,8 @@ class DaemonConfig(_Strict):
     security: SecurityConfig = SecurityConfig()
     jara: JaraConfig = JaraConfig()
     monitor: MonitorConfig = MonitorConfig()
+    view: ViewConfig = ViewConfig()
+    blackbox: BlackBoxConfig = BlackBoxConfig()
     #: Where the control process and the gateway meet (snapshot, command socket);
     #: default: a fresh private directory under /dev/shm or the temp directory.
     runtime_dir: Path | None = None
@@ -195,6 +227,13 @@ def security_problems(cfg: DaemonConfig) -> list[str]:
                 f"listen: {cfg.listen} is not loopback or a Unix socket: a client token is "
                 "required (security.tokens.motion, optionally security.tokens.read)"
             )
+    view = cfg.view.listen
+    if view is not None and not is_local(view) and not cfg.view.allow_remote:
+        problems.append(
+            f"view.listen: {view} is not loopback: the Foxglove protocol has no authentication "
+            "(anyone reaching the port sees the robot); set view.allow_remote: true to serve "
+            "there anyway"
+        )
     return problems
 
 

@@ -54,6 +54,13 @@ class LoopStats:
         if latency_us > 0.5 * self.period_us:
             self.late += 1
 
+    def last(self) -> tuple[float, float]:
+        """The latest cycle's wake latency and compute time [µs] (zeros before any)."""
+        if not self.cycles:
+            return 0.0, 0.0
+        i = (self.cycles - 1) % self.capacity
+        return float(self._latency_us[i]), float(self._compute_us[i])
+
     def record_overrun(self) -> None:
         self.overruns += 1
 

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from controller.contract.motion_specs import MotionSpec
+from controller.control.blackbox import BlackBoxRing
 from controller.control.commands import URGENT, Commands
 from controller.control.core import MotionCore
 from controller.control.loop import FixedRateLoop
@@ -90,6 +91,8 @@ class Controller(Commands):
         self.shutdown_requested = threading.Event()
         self._shutdown_deadline: float | None = None
         self.stop_timeout = 1.2
+        #: Every cycle goes into it when set (imotiond sets it when blackbox.dir is).
+        self.blackbox: BlackBoxRing | None = None
         self._handlers: dict[str, Callable[..., Any]] = {
             name.removeprefix("cmd_"): getattr(self, name)
             for name in dir(self)
@@ -112,6 +115,8 @@ class Controller(Commands):
             self.core.cycle()
             self._after_cycle()
             self.publish()
+            if self.blackbox is not None:
+                self._record_blackbox(self.blackbox)
         finally:
             # Answer only once the snapshot shows the command's effect: a client that reads
             # isMoving/getState right after an OK sees the motion it started.
@@ -197,5 +202,20 @@ class Controller(Commands):
         """Write the snapshot (loop thread, once per cycle)."""
         self.publisher.publish(len(self.queue), self.queue.full, self.started, self.finished)
 
+    def _record_blackbox(self, box: BlackBoxRing) -> None:
+        """One row of the black box (controller.control.blackbox; written out elsewhere)."""
+        core = self.core
+        box.record(
+            int(core.state),
+            self.started,
+            len(core.alarms),
+            getattr(getattr(core.ik, "solver", None), "iterations", -1),
+            self.loop.stats.last(),
+            core.measured_hw,
+            core.hw_command,
+        )
+
     def close(self) -> None:
         self.publisher.close()
+        if self.blackbox is not None:
+            self.blackbox.unlink()

@@ -32,6 +32,7 @@ from controller.contract.config import (
     security_problems,
     security_warnings,
 )
+from controller.control.blackbox import BlackBoxRing
 from controller.control.cycle_log import CycleLog
 from controller.control.process import Controller
 from controller.control.realtime import apply_realtime, restore
@@ -98,7 +99,7 @@ class Daemon:
     """The control side of imotiond, usable in-process (tests) or from :func:`main`."""
 
     def __init__(self, cfg: DaemonConfig):
-        from controller.gateway.process import JOINTS_NAME, SNAPSHOT_NAME
+        from controller.gateway.process import BLACKBOX_NAME, JOINTS_NAME, SNAPSHOT_NAME
 
         self.cfg = cfg
         self.runtime = make_runtime_dir(cfg)
@@ -116,6 +117,13 @@ class Daemon:
             cfg.loop.solver,
         )
         self.controller.stop_timeout = cfg.stop_timeout_s
+        if cfg.blackbox.dir is not None:
+            self.controller.blackbox = BlackBoxRing(
+                self.runtime / BLACKBOX_NAME,
+                len(self.hw.joint_names),
+                cfg.loop.rate_hz,
+                cfg.blackbox.seconds + cfg.blackbox.after_s,
+            )
         if cfg.loop.stats_file is not None:
             loop = self.controller.loop
             loop.stats = CycleLog(loop.period, loop.stats.capacity)
@@ -124,6 +132,7 @@ class Daemon:
         self.commands.start()
         self.gateway: subprocess.Popen[str] | None = None
         self._server: Any = None
+        self._observers: Any = None  #: live view and black-box writer (gateway thread only)
         self.address: str | None = None
         self.exit_code = 0
 
@@ -146,9 +155,10 @@ class Daemon:
 
     def start_gateway_thread(self) -> str:
         """The gateway inside this process (comparison only: shares the loop's GIL)."""
-        from controller.gateway.process import start_gateway
+        from controller.gateway.process import start_gateway, start_observers
 
-        self._server, self.address, _ = start_gateway(self.cfg, self.runtime)
+        self._server, self.address, ctx = start_gateway(self.cfg, self.runtime)
+        self._observers = start_observers(self.cfg, self.runtime, ctx)
         assert self.address is not None
         return self.address
 
@@ -164,6 +174,8 @@ class Daemon:
         self.controller.shutdown_requested.set()
 
     def close(self) -> None:
+        if self._observers is not None:
+            self._observers.close()
         if self._server is not None:
             self._server.stop(0)
         if self.gateway is not None and self.gateway.poll() is None:

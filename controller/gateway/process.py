@@ -16,6 +16,7 @@ import signal
 import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import grpc
@@ -29,6 +30,8 @@ from controller.gateway.grpc.jara import add_jara_servicers
 from controller.gateway.grpc.malformed import MalformedRequestInterceptor
 from controller.gateway.grpc.monitor import MonitorServicer
 from controller.gateway.grpc.spec_a import IntegratedMotionServicer
+from controller.gateway.observe.blackbox_writer import BlackBoxWriter
+from controller.gateway.observe.live_view import LiveView, start_live_view
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
 from controller.logs import setup_logging
@@ -39,6 +42,21 @@ _log = logging.getLogger("imotiond.gateway")
 
 JOINTS_NAME = "joints.json"
 SNAPSHOT_NAME = "snapshot"
+BLACKBOX_NAME = "blackbox"
+
+
+@dataclass
+class Observers:
+    """What the gateway runs besides gRPC: the live view and the black box's writer."""
+
+    live_view: LiveView | None = None
+    blackbox: BlackBoxWriter | None = None
+
+    def close(self) -> None:
+        if self.live_view is not None:
+            self.live_view.close()
+        if self.blackbox is not None:
+            self.blackbox.close()
 
 
 def build_context(cfg: DaemonConfig, runtime_dir: Path) -> Context:
@@ -47,6 +65,36 @@ def build_context(cfg: DaemonConfig, runtime_dir: Path) -> Context:
     view = RobotView(robot, SnapshotReader(runtime_dir / SNAPSHOT_NAME, len(joints)), joints)
     plan_view = RobotView(robot, SnapshotReader(runtime_dir / SNAPSHOT_NAME, len(joints)), joints)
     return Context(cfg, view, Planner(plan_view, cfg.period), CommandClient(runtime_dir))
+
+
+def own_view(ctx: Context, runtime_dir: Path) -> RobotView:
+    """A RobotView of its own (its own kinematics and lock) on the same snapshot."""
+    view = ctx.view
+    reader = SnapshotReader(runtime_dir / SNAPSHOT_NAME, len(view.hw_joints))
+    return RobotView(view.robot, reader, view.hw_joints)
+
+
+def start_observers(cfg: DaemonConfig, runtime_dir: Path, ctx: Context) -> Observers:
+    """Live view (``view.listen``) and black-box writer (``blackbox.dir``), as configured.
+
+    Both only read shared memory (the snapshot, the black-box ring): the control loop does
+    not see them (tools/bench_view.py).
+    """
+    out = Observers()
+    try:
+        if cfg.view.listen is not None:
+            out.live_view = start_live_view(cfg, own_view(ctx, runtime_dir))
+        if cfg.blackbox.dir is not None:
+            out.blackbox = BlackBoxWriter(
+                runtime_dir / BLACKBOX_NAME,
+                cfg.blackbox.dir,
+                cfg.blackbox.after_s,
+                own_view(ctx, runtime_dir),
+            )
+    except Exception:
+        out.close()
+        raise
+    return out
 
 
 def add_servicers(server: grpc.Server, ctx: Context) -> None:
@@ -104,7 +152,8 @@ def main(argv: list[str] | None = None) -> int:
     cfg = DaemonConfig.model_validate_json(sys.stdin.readline())
     setup_logging(cfg.log_level, "gateway")
     try:
-        server, address, _ = start_gateway(cfg, args.runtime)
+        server, address, ctx = start_gateway(cfg, args.runtime)
+        observers = start_observers(cfg, args.runtime, ctx)
     except Exception as exc:
         _log.error("gateway failed to start: %s", exc)
         print(f"FAILED {exc}", flush=True)
@@ -124,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"READY {address}", flush=True)
     _log.info("serving on %s", address)
     done.wait()
+    observers.close()
     server.stop(grace=0.3).wait(1.0)
     return 0
 
