@@ -13,8 +13,9 @@ import grpc
 
 from controller.conversions import ArgumentError
 from controller.errors import Refused
-from controller.gateway.grpc.base import Context, hg_msg, ratio_arg, rpc, seq_arg
-from controller.gateway.grpc.jara_arms import JaraArms, car_pos_arg
+from controller.gateway.grpc.base import car_pos_arg, hg_msg, ratio_arg, rpc, seq_arg
+from controller.gateway.services.context import Context
+from controller.gateway.services.jara_arm import JaraArmService
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import FrameType, ReturnCode, RightLeft
@@ -27,7 +28,7 @@ def _r(service: str, name: str) -> type:
     return getattr(pb, f"{service}{name}Response")
 
 
-def _require_dual(arms: JaraArms) -> None:
+def _require_dual(arms: JaraArmService) -> None:
     if set(arms.arms) != {RightLeft.RIGHT, RightLeft.LEFT}:
         raise Refused(
             ReturnCode.VALUE_ERR, "this robot has one arm: the dual-arm interface needs two"
@@ -35,7 +36,7 @@ def _require_dual(arms: JaraArms) -> None:
 
 
 class DualManipulatorCommonServicer(pb_grpc.DualManipulatorCommonServicer):
-    def __init__(self, ctx: Context, arms: JaraArms):
+    def __init__(self, ctx: Context, arms: JaraArmService):
         self.ctx = ctx
         self.arms = arms
 
@@ -63,7 +64,7 @@ class DualManipulatorCommonServicer(pb_grpc.DualManipulatorCommonServicer):
 
 
 class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
-    def __init__(self, ctx: Context, arms: JaraArms):
+    def __init__(self, ctx: Context, arms: JaraArmService):
         self.ctx = ctx
         self.arms = arms
 
@@ -125,14 +126,7 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
             RightLeft.RIGHT: car_pos_arg(request.r_arm, "rArm"),
             RightLeft.LEFT: car_pos_arg(request.l_arm, "lArm"),
         }
-        snap = self.ctx.snapshot()
-        self.arms.require_motion_state(snap)
-        q0 = self.ctx.planner.base_q(snap, queued=True)
-        goals = {
-            side: self.arms.ptp_goal(snap, q0, side, target, relative, name)[0]
-            for (side, target), name in zip(targets.items(), ("rArm", "lArm"), strict=True)
-        }
-        return self.arms.dual_ptp(goals, snap, q0)
+        return self.arms.dual_ptp_cartesian(targets, relative)
 
     @rpc(_r(M, "MovePTPCartesianAbs"))
     def MovePTPCartesianAbs(self, request):
@@ -144,20 +138,14 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
 
     def _ptp_joint(self, request, relative: bool):
         _require_dual(self.arms)
-        snap = self.ctx.snapshot()
-        self.arms.require_motion_state(snap)
-        q0 = self.ctx.planner.base_q(snap, queued=True)
-        goals = {}
-        for side, values, name in (
+        values = {}
+        for side, msg, name in (
             (RightLeft.RIGHT, request.r_arm, "rArm"),
             (RightLeft.LEFT, request.l_arm, "lArm"),
         ):
             n = len(self.arms.arms[side].joint_names)
-            deg = seq_arg(values, n, name, "joint values")
-            q = q0.copy()
-            q[self.arms.joints(side)] = self.arms.joint_target(side, deg, q0, relative, name)
-            goals[side] = q
-        return self.arms.dual_ptp(goals, snap, q0)
+            values[side] = seq_arg(msg, n, name, "joint values")
+        return self.arms.dual_ptp_joint(values, relative)
 
     @rpc(_r(M, "MovePTPJointAbs"))
     def MovePTPJointAbs(self, request):
@@ -178,7 +166,7 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
         return {"rel_pos": hg_msg(rel)}
 
 
-def add_dual_servicers(server: grpc.Server, ctx: Context, arms: JaraArms) -> None:
+def add_dual_servicers(server: grpc.Server, ctx: Context, arms: JaraArmService) -> None:
     pb_grpc.add_DualManipulatorCommonServicer_to_server(
         DualManipulatorCommonServicer(ctx, arms), server
     )

@@ -3,7 +3,7 @@
 Every request names its ``arm`` (RIGHT default; LEFT on a one-arm robot is VALUE_ERR). Servo
 power, alarms, pause/resume/stop act on the whole robot (one power chain): the arm field of
 those requests is checked but they do not act on one arm alone. Units: mm, deg, s, %.
-Queueing and frames: see :mod:`controller.gateway.grpc.jara_arms`.
+Queueing and frames: see :mod:`controller.gateway.services.jara_arm`.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from controller.contract.motion_specs import CartesianBox
 from controller.conversions import ArgumentError
 from controller.errors import Refused
 from controller.gateway.grpc.base import (
-    Context,
     alarm_msgs,
+    car_pos_arg,
     car_pos_msg,
     finite_arg,
     hg_arg,
@@ -28,8 +28,10 @@ from controller.gateway.grpc.base import (
     rpc,
     seq_arg,
 )
-from controller.gateway.grpc.jara_arms import NO_BOX_MM, JaraArms, car_pos_arg
 from controller.gateway.grpc.replies import jara_state
+from controller.gateway.planning.jara_arm import NO_BOX_MM
+from controller.gateway.services.context import Context
+from controller.gateway.services.jara_arm import JaraArmService
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import CoreState, ReturnCode, RightLeft, UnitType
@@ -43,7 +45,7 @@ def _r(service: str, name: str) -> type:
 
 
 class ManipulatorCommonServicer(pb_grpc.ManipulatorCommonServicer):
-    def __init__(self, ctx: Context, arms: JaraArms):
+    def __init__(self, ctx: Context, arms: JaraArmService):
         self.ctx = ctx
         self.arms = arms
 
@@ -147,7 +149,7 @@ class ManipulatorCommonServicer(pb_grpc.ManipulatorCommonServicer):
 
 
 class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
-    def __init__(self, ctx: Context, arms: JaraArms):
+    def __init__(self, ctx: Context, arms: JaraArmService):
         self.ctx = ctx
         self.arms = arms
 
@@ -423,7 +425,8 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
         )
         return arr, extra
 
-    def _gripper_value(self, side, value: float) -> None:
+    def _gripper_ratio(self, side, value: float) -> float:
+        """Opening 0..1 of a gripper value (getFeedbackPosJoint's unit: deg or mm)."""
         g = self.ctx.robot.profile.grippers[side.name]
         spec = self.ctx.robot.joints[g.joints[0]]
         si = math.radians(value) if spec.kind == "revolute" else value / 1e3
@@ -431,17 +434,19 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
         ratio = (si - lo) / (hi - lo)
         if not -1e-6 <= ratio <= 1 + 1e-6:
             raise ArgumentError(f"jointPoints: gripper value {value:g} is outside its range")
-        self.ctx.call("gripper", side=side, ratio=float(np.clip(ratio, 0.0, 1.0)))
+        return float(np.clip(ratio, 0.0, 1.0))
 
     def _ptp_joint(self, request, relative: bool, stream: bool = False):
         side, _ = self.arms.arm(request.arm)
         values, gripper = self._joints_arg(side, request.joint_points)
+        # every argument checked before anything moves (a refused command leaves no trace)
+        ratio = None if gripper is None else self._gripper_ratio(side, gripper)
         if stream:
             result = self.arms.stream_joint(side, values, relative)
         else:
             result = self.arms.ptp_joint(side, values, relative)
-        if gripper is not None:
-            self._gripper_value(side, gripper)
+        if ratio is not None:
+            self.ctx.call("gripper", side=side, ratio=ratio)
         return result
 
     @rpc(_r(M, "MovePTPJointAbs"))
@@ -523,10 +528,10 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
         return self._circular(request, relative=True)
 
 
-def add_jara_servicers(server: grpc.Server, ctx: Context) -> JaraArms:
+def add_jara_servicers(server: grpc.Server, ctx: Context) -> JaraArmService:
     from controller.gateway.grpc.dual import add_dual_servicers
 
-    arms = JaraArms(ctx)
+    arms = JaraArmService(ctx)
     pb_grpc.add_ManipulatorCommonServicer_to_server(ManipulatorCommonServicer(ctx, arms), server)
     pb_grpc.add_ManipulatorMiddleServicer_to_server(ManipulatorMiddleServicer(ctx, arms), server)
     add_dual_servicers(server, ctx, arms)

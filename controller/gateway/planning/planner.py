@@ -26,6 +26,7 @@ from controller.contract.motion_specs import (
 )
 from controller.contract.snapshot import Snapshot
 from controller.errors import Refused
+from controller.gateway.planning.elbow_reach import ELBOW_TOL, reach_elbow
 from controller.gateway.planning.robot_view import RobotView
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
@@ -33,7 +34,7 @@ from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
 from controller.qp.ik import WholeBodyIK
 from controller.qp.tasks import AxisTask, ControlPointTask, Task
-from controller.vocabulary import CoreState, ReturnCode, RightLeft
+from controller.vocabulary import ReturnCode, RightLeft
 
 Range = tuple[float, float]
 
@@ -52,12 +53,22 @@ class Planner:
     def base_q(self, snap: Snapshot, queued: bool) -> np.ndarray:
         """Configuration a new motion starts from: the measured one, or (queued behind
         running/queued motions) the planned end of the queue."""
-        idle = not snap.moving and snap.queue == 0 and snap.core_state == CoreState.READY
+        # Nothing executing and nothing queued (whatever the state: a pause or a stop while
+        # idle leaves no motion behind): the robot stays where it is.
+        idle = not snap.moving and snap.queue == 0
+        if idle:
+            self.forget_queue()
         if queued:
             if not idle and self.tail is not None:
                 return self.tail.copy()
             self.tail_poses.clear()  # nothing queued: plan from the measured state
         return self.view.measured_q(snap).copy()
+
+    def forget_queue(self) -> None:
+        """Nothing the gateway queued is left (stop, abort, servo off, alarm, or the queue
+        ran out): relative moves build on the measured state again."""
+        self.tail = None
+        self.tail_poses.clear()
 
     def remember(self, q_end: np.ndarray, poses: dict[RightLeft, pin.SE3] | None = None) -> None:
         """The end of the queue: configuration, and the exact target poses (original frame)
@@ -113,11 +124,34 @@ class Planner:
             reason = self.checker.check(kin, side, motion.path, motion.setup(), hold)  # type: ignore[attr-defined]
             q_end = self.checker.last_q.copy()
             limits = self.checker.path_parameter_limits()
+            if reason is None and elbow is not None:
+                self._check_elbow(side, q_end, elbow)
         if reason is not None:
             raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
         if math.isfinite(limits[0]):
             spec.path_limits = limits
         return spec, q_end
+
+    def _check_elbow(self, side: RightLeft, q_end: np.ndarray, elbow: float) -> None:
+        """VALUE_ERR when the elbow cannot reach ``elbow`` [rad] with the hand on the path's
+        end pose (configuration ``q_end`` of the checker); the comment names the joints."""
+        checker = self.checker
+        reached, at_limit = reach_elbow(
+            checker.kin, side, q_end, elbow, checker.q_min, checker.q_max
+        )
+        if not at_limit and abs(math.remainder(reached - elbow, math.tau)) < ELBOW_TOL:
+            return
+        why = (
+            f"limited by {', '.join(at_limit)} at {'its' if len(at_limit) == 1 else 'their'} "
+            "limit" + ("" if len(at_limit) == 1 else "s")
+            if at_limit
+            else "the arm cannot turn its elbow further there"
+        )
+        raise Refused(
+            ReturnCode.VALUE_ERR,
+            f"elbow: {math.degrees(elbow):.2f} deg is out of reach with the hand on the target: "
+            f"the elbow gets to {math.degrees(reached):.2f} deg ({why})",
+        )
 
     def pose_goal(
         self,
@@ -226,12 +260,20 @@ class Planner:
         )
 
     def dry_run(
-        self, snap: Snapshot, q0: np.ndarray, spec: MotionSpec, max_time: float = 600.0
+        self,
+        snap: Snapshot,
+        q0: np.ndarray,
+        spec: MotionSpec,
+        max_time: float = 600.0,
+        commanded: set[RedundantAxis] | None = None,
     ) -> str | None:
         """Run ``spec`` on the planning copy with perfect drives at a coarse step
         (:data:`DRY_RUN_DT`), with the daemon's own IK: None when it arrives (axis targets
         reached, held control points kept), else why not. For motions whose reachability
-        the path check cannot see (CP-hold: the body moves under a held hand)."""
+        the path check cannot see (CP-hold: the body moves under a held hand).
+
+        ``commanded``: the axes the request changes; a refusal names those first, and the
+        joints at their limits (not an axis only held along)."""
         with self.lock, self.view.at(snap, q0) as kin:
             if self._dry_ik is None:
                 self._dry_ik = WholeBodyIK(kin, DRY_RUN_DT)
@@ -255,7 +297,12 @@ class Planner:
                     settle += 1
                     if settle * DRY_RUN_DT >= 1.0 or np.abs(v).max() < 1e-6:
                         break
-            return _arrival_problem(kin, ik.tasks)
+            at_limit = [
+                kin.joint_names[i]
+                for i in np.flatnonzero(~setup.frozen)
+                if q[i] - ik.box.q_min[i] < LIMIT_TOL or ik.box.q_max[i] - q[i] < LIMIT_TOL
+            ]
+            return _arrival_problem(kin, ik.tasks, commanded, at_limit)
 
     def cp_hold(
         self,
@@ -296,26 +343,54 @@ DRY_RUN_DT = 0.02
 #: Arrival tolerances of a dry run: axis [m or rad], held control point [m].
 AXIS_TOL = (0.005, math.radians(0.5))
 HOLD_TOL = 0.002
+#: A joint this close to a limit [rad or m] is "at its limit" in a refusal.
+LIMIT_TOL = 1e-3
 
 
-def _arrival_problem(kin: Kinematics, tasks: list[Task]) -> str | None:
+def _arrival_problem(
+    kin: Kinematics,
+    tasks: list[Task],
+    commanded: set[RedundantAxis] | None = None,
+    at_limit: list[str] | None = None,
+) -> str | None:
+    """Why a dry run did not arrive (None: it did). Commanded axes are named first, then held
+    control points, then axes only held along (the vehicle's other axes); the reason names
+    the joints that ended at a limit."""
+    binding = (
+        f"joints at their limits: {', '.join(at_limit)}"
+        if at_limit
+        else "the arm's reach (no joint at a limit)"
+    )
+    axis_tasks: list[AxisTask] = [t for t in tasks if isinstance(t, AxisTask)]
+    if commanded is not None:
+        axis_tasks.sort(key=lambda t: t.axis not in commanded)
+    held_axes: list[str] = []
+    for axis_task in axis_tasks:
+        err = abs(axis_task.error(kin))
+        linear = axis_task.axis in (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y)
+        if err <= (AXIS_TOL[0] if linear else AXIS_TOL[1]):
+            continue
+        shown = f"{1e3 * err:.0f} mm" if linear else f"{math.degrees(err):.1f} deg"
+        if commanded is not None and axis_task.axis not in commanded:
+            held_axes.append(f"{axis_task.axis.value} {shown}")
+            continue
+        return (
+            f"in a dry run {axis_task.axis.value} stopped {shown} short of its target: the "
+            f"held control point(s) cannot follow that far ({binding})"
+        )
     for task in tasks:
-        if isinstance(task, AxisTask):
-            err = abs(task.error(kin))
-            linear = task.axis in (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y)
-            if err > (AXIS_TOL[0] if linear else AXIS_TOL[1]):
-                shown = f"{1e3 * err:.0f} mm" if linear else f"{math.degrees(err):.1f} deg"
-                return (
-                    f"in a dry run {task.axis.value} stopped {shown} short of its target: the "
-                    "held control point(s) cannot follow that far (arm reach or joint limits)"
-                )
-        elif isinstance(task, ControlPointTask):
+        if isinstance(task, ControlPointTask):
             err = float(np.linalg.norm(task.error(kin)[:3]))
             if err > HOLD_TOL:
                 return (
                     f"in a dry run the {task.side.name} control point moved {1e3 * err:.1f} mm "
-                    "while held: the arm cannot keep it there (reach or joint limits)"
+                    f"while held: the arm cannot keep it there ({binding})"
                 )
+    if held_axes:
+        return (
+            f"in a dry run the axes held along drifted ({', '.join(held_axes)}) while the "
+            f"held control point(s) followed ({binding})"
+        )
     return None
 
 
