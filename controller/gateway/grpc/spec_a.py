@@ -5,14 +5,11 @@ the reply. The rules (state, order of checks, units) are the service's.
 
 from __future__ import annotations
 
-import numpy as np
-
 from controller import __version__
 from controller.conversions import ArgumentError
 from controller.gateway.grpc.base import (
     alarm_msgs,
     car_pos_msg,
-    hg_arg,
     ratio_arg,
     require_gripper,
     rpc,
@@ -138,13 +135,7 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
     @rpc(pb.SetControlPointOffsetResponse)
     def SetControlPointOffset(self, request):
         side = side_arg(self.view, request.type)
-        offset = hg_arg(request.offset, "offset")
-        if np.linalg.norm(offset.translation) > 2.0:
-            raise ArgumentError(
-                f"offset: {1e3 * np.linalg.norm(offset.translation):.0f} mm from the flange "
-                "is not a plausible tool (limit 2000 mm)"
-            )
-        self.ctx.call("set_control_point_offset", side=side, offset=offset.homogeneous)
+        self.service.set_control_point_offset(side, list(request.offset.m))
 
     @rpc(pb.SelectRedundantAxesResponse)
     def SelectRedundantAxes(self, request):

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from controller.conversions import deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
 from controller.errors import ArgumentError
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.relative import elbow_goal, relative_pose
@@ -75,10 +76,10 @@ class ArmSettings:
         specs = [robot.joints[n] for n in names]
         settings = cls(
             joint_names=names,
-            hw_speed=np.degrees([s.velocity for s in specs]),
-            hw_accel=np.degrees([s.acceleration for s in specs]),
-            hw_lower=np.degrees([s.lower for s in specs]),
-            hw_upper=np.degrees([s.upper for s in specs]),
+            hw_speed=rad_to_deg([s.velocity for s in specs]),
+            hw_accel=rad_to_deg([s.acceleration for s in specs]),
+            hw_lower=rad_to_deg([s.lower for s in specs]),
+            hw_upper=rad_to_deg([s.upper for s in specs]),
             speed_ratio_cartesian=robot.profile.speed_ratio,
             speed_ratio_joint=robot.profile.speed_ratio,
             max_speed_cartesian=max_speed_cartesian,
@@ -100,7 +101,7 @@ class ArmSettings:
     def joint_speed(self, ratio: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Joint speed and acceleration for the current ratio [rad/s, rad/s²]."""
         share = (self.speed_ratio_joint if ratio is None else ratio) / 100.0
-        v = np.radians(self.max_speed_joint) * share
+        v = deg_to_rad(self.max_speed_joint) * share
         return v, v / self.accel_time_joint
 
     def cartesian_speed(
@@ -109,8 +110,8 @@ class ArmSettings:
         """Cartesian speed and acceleration [m/s, rad/s], [m/s², rad/s²]."""
         share = (self.speed_ratio_cartesian if ratio is None else ratio) / 100.0
         v = (
-            self.max_speed_cartesian[0] / 1e3 * share,
-            math.radians(self.max_speed_cartesian[1]) * share,
+            float(mm_to_m(self.max_speed_cartesian[0])) * share,
+            float(deg_to_rad(self.max_speed_cartesian[1])) * share,
         )
         t = self.accel_time_cartesian
         return v, (v[0] / t, v[1] / t)
@@ -139,7 +140,7 @@ def check_box(settings: ArmSettings, pose_arm: pin.SE3, name: str) -> None:
     if settings.soft_box is None:
         return
     lo, hi = settings.soft_box
-    p = pose_arm.translation * 1e3
+    p = m_to_mm(pose_arm.translation)
     if np.any(p < lo - 1e-6) or np.any(p > hi + 1e-6):
         shown = ", ".join(f"{x:.1f}" for x in p)
         raise ArgumentError(f"{name}: target ({shown}) mm is outside the Cartesian soft limit")
@@ -181,7 +182,7 @@ def joint_target(
     """An arm's joint target [rad] from joint values [rad] (absolute, or relative to ``q0``);
     ArgumentError outside the soft limits."""
     target = np.asarray(values, dtype=float) + (q0[joints] if relative else 0.0)
-    lo, hi = np.radians(settings.soft_lower), np.radians(settings.soft_upper)
+    lo, hi = deg_to_rad(settings.soft_lower), deg_to_rad(settings.soft_upper)
     for i, joint in enumerate(settings.joint_names):
         if not lo[i] - 1e-9 <= target[i] <= hi[i] + 1e-9:
             raise ArgumentError(

@@ -220,8 +220,8 @@ class JaraArmService:
         spec = JointStreamSpec(
             joints=joints,
             target=q_goal[joints].copy(),
-            v_max=np.radians(settings.max_speed_joint),
-            a_max=np.radians(settings.hw_accel),
+            v_max=deg_to_rad(settings.max_speed_joint),
+            a_max=deg_to_rad(settings.hw_accel),
             period=self.cmd_cycle,
             key=side.name,
             planned_from=q0.copy(),

@@ -11,7 +11,6 @@ does anything move.
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Mapping, Sequence
 
@@ -31,6 +30,8 @@ from controller.gateway.services.states import spec_a_state
 from controller.model.redundant_axes import RedundantAxis, available_axes, elbow_axis
 from controller.vocabulary import ReturnCode, RightLeft, SpecAState, UnitType
 
+#: Farthest control point from the flange [m].
+MAX_TOOL_OFFSET = 2.0
 #: Longest movePTPCartesian time [s] (the time law fails on much longer ones).
 MAX_PTP_TIME = 3600.0
 
@@ -110,6 +111,19 @@ class SpecAService:
         self._settings = threading.Lock()
 
     # ------------------------------------------------------------------ settings
+    def set_control_point_offset(
+        self, side: RightLeft, offset_hg: np.ndarray | Sequence[float]
+    ) -> None:
+        """The control point in the flange frame: HgMatrix [mm], at most 2000 mm away."""
+        offset = pose_arg(offset_hg, "offset")
+        distance = float(np.linalg.norm(offset.translation))
+        if distance > MAX_TOOL_OFFSET:
+            raise ArgumentError(
+                f"offset: {1e3 * distance:.0f} mm from the flange is not a plausible tool "
+                f"(limit {1e3 * MAX_TOOL_OFFSET:.0f} mm)"
+            )
+        self.ctx.call("set_control_point_offset", side=side, offset=offset.homogeneous)
+
     def select_redundant_axes(
         self, mask: Mapping[str, bool], limits: Mapping[str, tuple[float, float]]
     ) -> str | None:
@@ -173,8 +187,8 @@ class SpecAService:
             v = self._pair(speed, "speed", "mm/s, deg/s")
             a = self._pair(accel, "accel", "mm/s², deg/s²")
             target = np.array([*mm_to_m(values[:2], pos_name), deg_to_rad(values[2], pos_name)])
-            v_si = np.array([v[0] / 1e3, math.radians(v[1])])
-            a_si = np.array([a[0] / 1e3, math.radians(a[1])])
+            v_si = np.array([mm_to_m(v[0]), deg_to_rad(v[1])])
+            a_si = np.array([mm_to_m(a[0]), deg_to_rad(a[1])])
         else:
             specs = [ctx.robot.joints[j] for j in names]
             v_si = np.array(
@@ -245,12 +259,11 @@ class SpecAService:
                     if axis == RedundantAxis.VEHICLE_THETA
                     else "vehicle_translation"
                 )
-            linear = rate == "vehicle_translation"
-            to_si = 1e-3 if linear else math.pi / 180.0
+            to_si = mm_to_m if rate == "vehicle_translation" else deg_to_rad
             requests[axis] = AxisRequest(
                 value=_si(axis, value, f"{pos_name}.{field}"),
-                speed=float(speed.get(rate, 0.0)) * to_si,
-                accel=float(accel.get(rate, 0.0)) * to_si,
+                speed=float(to_si(speed.get(rate, 0.0), f"speed.{rate}")),
+                accel=float(to_si(accel.get(rate, 0.0), f"accel.{rate}")),
                 field=field,
                 rate_field=rate,
             )
@@ -281,12 +294,12 @@ class SpecAService:
         ctx = self.ctx
         goal = pose_arg(target_hg, target_name)
         v = (
-            positive_arg(speed[0], "speed.translation", "mm/s") / 1e3,
-            math.radians(positive_arg(speed[1], "speed.rotation", "deg/s")),
+            float(mm_to_m(positive_arg(speed[0], "speed.translation", "mm/s"))),
+            float(deg_to_rad(positive_arg(speed[1], "speed.rotation", "deg/s"))),
         )
         a = (
-            positive_arg(accel[0], "accel.translation", "mm/s²") / 1e3,
-            math.radians(positive_arg(accel[1], "accel.rotation", "deg/s²")),
+            float(mm_to_m(positive_arg(accel[0], "accel.translation", "mm/s²"))),
+            float(deg_to_rad(positive_arg(accel[1], "accel.rotation", "deg/s²"))),
         )
         snap = ctx.snapshot()
         require_ready(snap, sv_on_code=False)
