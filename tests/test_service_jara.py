@@ -506,3 +506,16 @@ def test_a_refused_streamed_set_point_leaves_no_trace(d, n):
     assert code(r) == VALUE_ERR, r.return_id.comment
     assert not d.spec_a.IsMoving(pb.IsMovingRequest()).is_moving
     np.testing.assert_allclose(joints(d), before, atol=1e-9)
+
+
+def test_a_relative_move_queued_behind_a_paused_motion_builds_on_its_end(d):
+    """The other half of 15.1: a paused motion still ends where it was going."""
+    start = joints(d)[0]
+    assert code(d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[10] + [0] * 6))) == OK
+    assert code(d.middle.Pause(M("Pause"))) == OK
+    assert d.wait_for(lambda: state_bits(d) & 0x10)
+    r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[2] + [0] * 6))
+    assert code(r) == OK and "queued" in r.return_id.comment, r.return_id.comment
+    assert code(d.middle.Resume(M("Resume"))) == OK
+    assert d.wait_idle()
+    assert joints(d)[0] == pytest.approx(start + 12.0, abs=0.05)

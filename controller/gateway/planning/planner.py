@@ -24,7 +24,7 @@ from controller.contract.motion_specs import (
     MotionSpec,
     VehicleMoveSpec,
 )
-from controller.contract.snapshot import Snapshot
+from controller.contract.snapshot import F_MOTION, Snapshot
 from controller.errors import Refused
 from controller.gateway.planning.elbow_reach import ELBOW_TOL, reach_elbow
 from controller.gateway.planning.robot_view import RobotView
@@ -53,9 +53,10 @@ class Planner:
     def base_q(self, snap: Snapshot, queued: bool) -> np.ndarray:
         """Configuration a new motion starts from: the measured one, or (queued behind
         running/queued motions) the planned end of the queue."""
-        # Nothing executing and nothing queued (whatever the state: a pause or a stop while
-        # idle leaves no motion behind): the robot stays where it is.
-        idle = not snap.moving and snap.queue == 0
+        # No motion (running or paused), nothing moving, nothing queued, whatever the state
+        # (a stop, then a pause while idle leaves no motion behind): the robot stays where it
+        # is, and relative moves build on the measured state (issue 15.1).
+        idle = not snap.flags & F_MOTION and not snap.moving and snap.queue == 0
         if idle:
             self.forget_queue()
         if queued:
