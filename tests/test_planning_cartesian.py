@@ -29,7 +29,9 @@ def test_a_relative_linear_move_targets_the_current_pose_plus_the_change():
         ctx.planner, snap, RIGHT, up(0.02), (0.05, 0.3), (0.1, 0.6), False, ELBOW, {}, False, "rel"
     )
     assert isinstance(spec, CartesianMoveSpec)
-    np.testing.assert_allclose(spec.target[:3, 3], start.translation + [0, 0, 0.02], atol=1e-12)
+    np.testing.assert_allclose(
+        spec.target[:3, 3], start.translation + np.array([0.0, 0.0, 0.02]), atol=1e-12
+    )
     assert spec.planned_from is not None
 
 

@@ -75,7 +75,7 @@ def test_a_moving_axis_needs_a_positive_speed_named_in_interface_units():
 
 def test_elbow_ruling_and_waist_range():
     ctx, _, _ = context("smartpal5")
-    with pytest.raises(ArgumentError, match="outside -180..180"):
+    with pytest.raises(ArgumentError, match=r"outside -180\.\.180"):
         plan_cp_hold(
             ctx.planner,
             ctx.snapshot(),

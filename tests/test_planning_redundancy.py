@@ -23,7 +23,7 @@ def test_ranges_are_checked():
     rob = robot("smartpal5")
     with pytest.raises(ArgumentError, match="below lower"):
         axis_range(rob, RedundantAxis.VEHICLE_X, 0.2, 0.1, "limit.vehicle_x")
-    with pytest.raises(ArgumentError, match="-180..180"):
+    with pytest.raises(ArgumentError, match=r"-180\.\.180"):
         axis_range(rob, RedundantAxis.RIGHT_ELBOW, -4.0, 0.0, "limit.right_elbow")
     lo, hi = lumbar_range(rob, RedundantAxis.LUMBAR_RY)
     with pytest.raises(ArgumentError, match="wider than the waist"):
