@@ -1,5 +1,5 @@
 """controller.gateway.planning.planner: the queue tail relative moves build on (issue 15.1),
-refusals that name what binds (16.9), the elbow reachability check (15.3)."""
+the elbow reachability check of Cartesian moves (15.3)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,7 @@ import pinocchio as pin
 import pytest
 
 from controller.errors import Refused
-from controller.gateway.planning.planner import _arrival_problem
 from controller.model.redundant_axes import RedundantAxis
-from controller.qp.tasks import AxisTask
 from controller.vocabulary import CoreState, FrameType, ReturnCode, RightLeft
 from tests.planning_support import context, snapshot
 
@@ -47,19 +45,6 @@ def test_forget_queue():
     ctx.planner.remember(np.zeros(3), {RIGHT: pin.SE3.Identity()})
     ctx.planner.forget_queue()
     assert ctx.planner.tail is None and ctx.planner.tail_pose(RIGHT) is None
-
-
-def test_an_arrival_problem_names_the_commanded_axis_before_one_held_along():
-    ctx, _, _ = context("smartpal5")
-    with ctx.view.at(ctx.snapshot()) as kin:
-        x = AxisTask(RedundantAxis.VEHICLE_X, 0.05)  # 50 mm off, held along
-        y = AxisTask(RedundantAxis.VEHICLE_Y, 0.03)  # 30 mm off, commanded
-        why = _arrival_problem(kin, [x, y], {RedundantAxis.VEHICLE_Y}, ["r_arm_j2"])
-        assert why is not None
-        assert why.startswith("in a dry run vehicleY stopped 30 mm short")
-        assert "joints at their limits: r_arm_j2" in why
-        only_held = _arrival_problem(kin, [x], {RedundantAxis.VEHICLE_Y}, [])
-        assert only_held is not None and "held along drifted (vehicleX 50 mm)" in only_held
 
 
 def test_a_linear_move_with_an_elbow_out_of_reach_is_value_err_naming_the_joint():
