@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import logging
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -18,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from controller.contract.snapshot import Snapshot
-from controller.conversions import hg_to_se3, se3_to_hg
+from controller.conversions import hg_to_se3, rad_to_deg, se3_to_hg
 from controller.errors import ArgumentError, ChannelError, ImotionError
 from controller.gateway.planning.robot_view import RobotView
 from controller.gateway.services.arguments import finite_arg as finite_arg
@@ -120,7 +119,7 @@ def car_pos_arg(msg: pb.CarPosWithElbow, name: str) -> CarPos:
 
 
 def car_pos_msg(pose: pin.SE3, elbow: float) -> pb.CarPosWithElbow:
-    return pb.CarPosWithElbow(car_pos=hg_msg(pose), elbow=math.degrees(elbow), struct_flag=0)
+    return pb.CarPosWithElbow(car_pos=hg_msg(pose), elbow=float(rad_to_deg(elbow)), struct_flag=0)
 
 
 def alarm_msgs(snap: Snapshot, with_module: bool = True) -> list[pb.Alarm]:
