@@ -22,6 +22,9 @@ ELBOW_TOL = math.radians(1.0)
 #: Largest joint step of one iteration [rad].
 MAX_STEP = 0.05
 MAX_ITER = 200
+#: The walk ends when the elbow error has not shrunk by PROGRESS [rad] in STALL_ITER steps.
+PROGRESS = 1e-4
+STALL_ITER = 8
 DAMPING = 1e-4
 #: Weight of the hand's pose against the elbow: the hand stays, the elbow gives way.
 POSE_WEIGHT = 10.0
@@ -44,12 +47,19 @@ def reach_elbow(
     kin.update(q)
     pose = kin.pose(side).copy()
     blocked: list[int] = []
+    best, stalled = math.inf, 0
     for _ in range(MAX_ITER):
         kin.update(q)
         err_elbow = math.remainder(elbow - kin.elbow_angle(side), math.tau)
         err_pose = pose_error(pose, kin.pose(side))
         if abs(err_elbow) < ELBOW_TOL * 0.1:
             return elbow, []
+        if abs(err_elbow) < best - PROGRESS:
+            best, stalled = abs(err_elbow), 0
+        else:
+            stalled += 1
+            if stalled >= STALL_ITER:
+                break  # the elbow no longer turns: a limit or the arm's geometry holds it
         free = np.array([i for i in arm if i not in blocked], dtype=int)
         if free.size == 0:
             break
