@@ -75,3 +75,73 @@ def test_a_cp_hold_to_where_the_axes_already_are_is_ok_and_moves_nothing(d):
     np.testing.assert_allclose(waist1, waist0, atol=1e-9)
     np.testing.assert_allclose(vehicle1, vehicle0, atol=1e-9)
     np.testing.assert_allclose(right1, right0, atol=1e-9)
+
+
+SPEED = pb.RedundantSpeed(
+    elbow=20, lumbar_rx=10, lumbar_ry=10, lumbar_rz=10, vehicle_translation=100, vehicle_rotation=10
+)
+ACCEL = pb.RedundantAccel(
+    elbow=40, lumbar_rx=20, lumbar_ry=20, lumbar_rz=20, vehicle_translation=200, vehicle_rotation=20
+)
+
+
+def rel_request(**rel):
+    return pb.MoveCPHoldRelRequest(type=0, rel_pos=pb.RedundantPos(**rel), speed=SPEED, accel=ACCEL)
+
+
+def test_elbow_ruling_refuses_more_than_half_a_turn_and_absurd_angles(d):
+    """Issue 16.11: +720 deg was OK "already at its target", 1e6 deg was accepted. Ruling:
+    absolute -360..360 deg, relative -180..180 deg, VALUE_ERR outside (docs/interfaces)."""
+    (waist0, vehicle0), (right0, _) = state(d)
+    r = d.spec_a.MoveCPHoldRel(rel_request(elbow=720))
+    assert r.return_id.id == -3, r.return_id.comment
+    assert "rel_pos.elbow" in r.return_id.comment and "-180..180" in r.return_id.comment
+    r = d.spec_a.MoveCPHoldAbs(
+        pb.MoveCPHoldAbsRequest(
+            type=0, abs_pos=pb.RedundantPos(elbow=1e6), speed=SPEED, accel=ACCEL
+        )
+    )
+    assert r.return_id.id == -3, r.return_id.comment
+    assert "abs_pos.elbow" in r.return_id.comment
+    assert not d.spec_a.IsMoving(pb.IsMovingRequest()).is_moving
+    (waist1, vehicle1), (right1, _) = state(d)
+    np.testing.assert_allclose(right1, right0, atol=1e-9)
+    np.testing.assert_allclose(waist1, waist0, atol=1e-9)
+    np.testing.assert_allclose(vehicle1, vehicle0, atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def pa10():
+    daemon = TestDaemon("pa10")
+    daemon.reset()
+    yield daemon
+    daemon.close()
+
+
+def test_axes_the_robot_lacks_are_named_in_the_comment(pa10):
+    """Issue 16.10: PA10 (no waist, no vehicle) answered OK "every redundant axis is already
+    at its target" for lumbar/vehicle values; the comment now says they are ignored."""
+    r = pa10.spec_a.MoveCPHoldRel(rel_request(lumbar_rx=5, vehicle_x=100))
+    assert r.return_id.id == 0, r.return_id.comment
+    comment = r.return_id.comment
+    assert "no lumbar_rx, vehicle_x" in comment and "ignored" in comment, comment
+    assert not pa10.spec_a.IsMoving(pb.IsMovingRequest()).is_moving
+
+
+@pytest.fixture(scope="module")
+def seednoid():
+    daemon = TestDaemon("seednoid")
+    daemon.reset()
+    yield daemon
+    daemon.close()
+
+
+@pytest.mark.parametrize("dy", [150.0, -150.0])
+def test_a_refusal_names_the_commanded_axis_and_the_binding_joints(seednoid, dy):
+    """Issue 16.9: vehicleY +150 mm was refused blaming "vehicleX stopped 12 mm short"."""
+    r = seednoid.spec_a.MoveCPHoldRel(rel_request(vehicle_y=dy))
+    assert r.return_id.id == -6, r.return_id.comment  # CANNOT_REACH_TARGET_ERR
+    comment = r.return_id.comment
+    assert "vehicleY" in comment and "vehicleX" not in comment, comment
+    assert "at their limits" in comment or "reach" in comment, comment
+    assert not seednoid.spec_a.IsMoving(pb.IsMovingRequest()).is_moving

@@ -414,3 +414,108 @@ def test_cmd_cycle_set_points_stream_into_one_motion(d):
     assert any("stream" in c for c in comments), comments
     assert d.wait_idle()
     np.testing.assert_allclose(joints(d)[:7], target, atol=1e-3)
+
+
+def state_bits(d):
+    return d.common.GetState(C("GetState")).state
+
+
+def test_relative_move_after_stop_and_pause_builds_on_where_the_arm_is(d):
+    """Issue 15.1: +30 deg on J3 stopped at ~10 deg, pause, +1 deg, resume went to 31 deg:
+    the queue's commanded end survived the stop (and the pause kept it)."""
+    ratio = d.middle.GetSpeedJoint(M("GetSpeedJoint")).spd_ratio
+    assert code(d.middle.SetSpeedJoint(M("SetSpeedJoint", spd_ratio=20))) == OK
+    try:
+        start = joints(d)[2]
+        r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[0, 0, 30, 0, 0, 0, 0]))
+        assert code(r) == OK, r.return_id.comment
+        assert d.wait_for(lambda: joints(d)[2] - start > 5.0)
+        assert code(d.middle.Stop(M("Stop"))) == OK
+        assert d.wait_idle()
+        stopped = joints(d)[2]
+        assert stopped - start < 25.0  # really stopped short
+        assert code(d.middle.Pause(M("Pause"))) == OK
+        assert d.wait_for(lambda: state_bits(d) & 0x10)
+        r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[0, 0, 1, 0, 0, 0, 0]))
+        assert code(r) == OK, r.return_id.comment
+        assert code(d.middle.Resume(M("Resume"))) == OK
+        assert d.wait_idle()
+        assert joints(d)[2] == pytest.approx(stopped + 1.0, abs=0.05)
+    finally:
+        d.middle.SetSpeedJoint(M("SetSpeedJoint", spd_ratio=ratio))
+
+
+def test_paused_and_still_is_not_moving(d):
+    """Issue 15.9 (ruling: 0x02 = the axes move): paused and still read 0x13 (moving +
+    paused), so a client waiting for 0x02 to clear after pause waited forever."""
+    r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[20] + [0] * 6))
+    assert code(r) == OK
+    assert state_bits(d) & 0x02  # moving
+    assert code(d.middle.Pause(M("Pause"))) == OK
+    assert d.wait_for(lambda: state_bits(d) & 0x10)
+    bits = state_bits(d)
+    assert bits & 0x01 and bits & 0x10 and not bits & 0x02, hex(bits)
+    r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[-5] + [0] * 6))
+    assert code(r) == OK and "queued" in r.return_id.comment, r.return_id.comment
+    bits = state_bits(d)  # a motion queued behind the paused one moves nothing yet
+    assert bits & 0x10 and not bits & 0x02, hex(bits)
+    assert code(d.middle.Resume(M("Resume"))) == OK
+    assert d.wait_for(lambda: not state_bits(d) & 0x10)
+    assert d.wait_idle()
+    assert not state_bits(d) & 0x02
+
+
+@pytest.fixture(scope="module")
+def seednoid():
+    daemon = TestDaemon("seednoid")
+    daemon.reset()
+    yield daemon
+    daemon.close()
+
+
+def test_an_elbow_target_out_of_reach_is_refused_naming_the_joint(seednoid):
+    """Issue 15.3: elbow +20 deg from home (SEED-Noid) answered OK and stopped at 6.97 deg
+    (a shoulder joint at its limit); now VALUE_ERR saying which joint limits it, nothing
+    moves; a reachable elbow change is still executed."""
+    d = seednoid
+    assert code(d.middle.GoHome(M("GoHome"))) == OK
+    assert d.wait_idle()
+    for elbow in (20.0,):
+        before = joints(d)
+        r = d.middle.MoveLinearCartesianRel(M("MoveLinearCartesianRel", car_point=car(elbow=elbow)))
+        assert code(r) == VALUE_ERR, r.return_id.comment
+        comment = r.return_id.comment
+        assert "elbow" in comment and "r_shoulder" in comment and "limit" in comment, comment
+        assert not d.spec_a.IsMoving(pb.IsMovingRequest()).is_moving
+        np.testing.assert_allclose(joints(d), before, atol=1e-9)
+    _, elbow0 = pose(d)
+    r = d.middle.MoveLinearCartesianRel(M("MoveLinearCartesianRel", car_point=car(elbow=-10.0)))
+    assert code(r) == OK, r.return_id.comment  # within reach: still executed
+    assert d.wait_idle()
+    assert pose(d)[1] - elbow0 < -5.0
+
+
+@pytest.mark.parametrize("n", [8, 9, 100_000])
+def test_a_refused_streamed_set_point_leaves_no_trace(d, n):
+    """Issue 17.3: movePTPJointAbsCmdCycle with 8 (a gripper value out of range), 9 or
+    100 000 values was refused and the arm moved anyway (the stream started before the
+    gripper value was checked)."""
+    before = joints(d)
+    values = list(before[:7] + 5.0) + [1e6] * (n - 7)
+    r = d.middle.MovePTPJointAbsCmdCycle(M("MovePTPJointAbsCmdCycle", joint_points=values))
+    assert code(r) == VALUE_ERR, r.return_id.comment
+    assert not d.spec_a.IsMoving(pb.IsMovingRequest()).is_moving
+    np.testing.assert_allclose(joints(d), before, atol=1e-9)
+
+
+def test_a_relative_move_queued_behind_a_paused_motion_builds_on_its_end(d):
+    """The other half of 15.1: a paused motion still ends where it was going."""
+    start = joints(d)[0]
+    assert code(d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[10] + [0] * 6))) == OK
+    assert code(d.middle.Pause(M("Pause"))) == OK
+    assert d.wait_for(lambda: state_bits(d) & 0x10)
+    r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[2] + [0] * 6))
+    assert code(r) == OK and "queued" in r.return_id.comment, r.return_id.comment
+    assert code(d.middle.Resume(M("Resume"))) == OK
+    assert d.wait_idle()
+    assert joints(d)[0] == pytest.approx(start + 12.0, abs=0.05)

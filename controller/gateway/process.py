@@ -25,7 +25,6 @@ from controller.contract.channel import CommandClient
 from controller.contract.config import DaemonConfig, parse_listen
 from controller.contract.snapshot import SnapshotReader
 from controller.gateway.grpc.auth import TokenInterceptor
-from controller.gateway.grpc.base import Context
 from controller.gateway.grpc.jara import add_jara_servicers
 from controller.gateway.grpc.malformed import MalformedRequestInterceptor
 from controller.gateway.grpc.monitor import MonitorServicer
@@ -34,6 +33,7 @@ from controller.gateway.observe.blackbox_writer import BlackBoxWriter
 from controller.gateway.observe.live_view import LiveView, start_live_view
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
+from controller.gateway.services.context import Context
 from controller.logs import setup_logging
 from controller.model.robot import load_robot
 from controller.rpc import imotion_pb2_grpc as pb_grpc

@@ -10,62 +10,31 @@ from __future__ import annotations
 
 import functools
 import logging
-import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from controller.contract.channel import ChannelError, CommandClient
-from controller.contract.config import DaemonConfig
 from controller.contract.snapshot import Snapshot
-from controller.conversions import ArgumentError, hg_to_se3, se3_to_hg
-from controller.errors import Refused
-from controller.gateway.planning.planner import Planner
+from controller.conversions import hg_to_se3, rad_to_deg, se3_to_hg
+from controller.errors import ArgumentError, ChannelError, ImotionError
 from controller.gateway.planning.robot_view import RobotView
-from controller.model.robot import Robot
+from controller.gateway.services.arguments import finite_arg as finite_arg
+from controller.gateway.services.arguments import positive_arg as positive_arg
+from controller.gateway.services.context import Context as Context
+from controller.gateway.services.jara_arm import CarPos, car_pos
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode, RightLeft, UnitType
 
 _log = logging.getLogger("imotiond.service")
 
 
-@dataclass
-class Context:
-    """What servicers work with: configuration, views of the robot, planner, control link."""
-
-    config: DaemonConfig
-    view: RobotView  #: for queries
-    planner: Planner  #: owns its own view, for planning
-    control: CommandClient
-
-    @property
-    def robot(self) -> Robot:
-        return self.view.robot
-
-    def snapshot(self) -> Snapshot:
-        return self.view.snapshot()
-
-    def call(self, name: str, sv_on_code: bool = True, **args: Any) -> Any:
-        """Run a control command; a refusal becomes a Refused with the family's code.
-
-        ``sv_on_code``: the operation lists NOT_SV_ON_ERR (else servo off is STATUS_ERR).
-        """
-        ok, value, message = self.control.call(name, **args)
-        if ok:
-            return value
-        code = ReturnCode(value) if value in ReturnCode._value2member_map_ else ReturnCode.NG
-        if code == ReturnCode.NOT_SV_ON_ERR and not sv_on_code:
-            code = ReturnCode.STATUS_ERR
-        raise Refused(code, message)
-
-
 def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """Wrap a servicer method ``fn(self, request) -> dict | None`` into a gRPC handler.
+    """Wrap a servicer method ``fn(self, request) -> dict | str | None`` into a gRPC handler.
 
-    The dict holds the response's out-fields; an optional ``"comment"`` key replaces "OK".
+    The dict holds the response's out-fields; an optional ``"comment"`` key replaces "OK"; a
+    string is the comment alone. An :class:`ImotionError` becomes its code and comment.
     """
 
     def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -73,14 +42,14 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
         def handler(self: Any, request: Any, context: Any) -> Any:
             try:
                 outs = fn(self, request) or {}
+                if isinstance(outs, str):
+                    outs = {"comment": outs}
                 comment = outs.pop("comment", "OK")
                 return response(return_id=pb.ReturnID(id=ReturnCode.OK, comment=comment), **outs)
-            except Refused as exc:
-                code, comment = exc.code, exc.comment
-            except ArgumentError as exc:
-                code, comment = ReturnCode.VALUE_ERR, str(exc)
             except ChannelError as exc:
                 code, comment = ReturnCode.NG, f"the control loop is not reachable: {exc}"
+            except ImotionError as exc:
+                code, comment = exc.code, exc.comment
             except Exception as exc:  # never let a request take the gateway down
                 _log.exception("%s failed", fn.__name__)
                 code, comment = ReturnCode.NG, f"internal error in {fn.__name__}: {exc!r}"
@@ -127,19 +96,6 @@ def hg_msg(pose: pin.SE3) -> pb.HgMatrix:
     return pb.HgMatrix(m=se3_to_hg(pose).ravel().tolist())
 
 
-def finite_arg(value: float, name: str) -> float:
-    if not math.isfinite(value):
-        raise ArgumentError(f"{name}: {value} is not a finite number")
-    return float(value)
-
-
-def positive_arg(value: float, name: str, unit: str = "") -> float:
-    finite_arg(value, name)
-    if value <= 0.0:
-        raise ArgumentError(f"{name}: must be > 0{' ' + unit if unit else ''}, got {value:g}")
-    return float(value)
-
-
 def ratio_arg(value: int, name: str) -> float:
     """A % ratio 0..100 as a fraction 0..1."""
     if not 0 <= value <= 100:
@@ -157,8 +113,13 @@ def seq_arg(values: Any, n: int, name: str, what: str = "values") -> np.ndarray:
     return arr
 
 
+def car_pos_arg(msg: pb.CarPosWithElbow, name: str) -> CarPos:
+    """A CarPosWithElbow message, checked and in SI."""
+    return car_pos(list(msg.car_pos.m), msg.elbow, name)
+
+
 def car_pos_msg(pose: pin.SE3, elbow: float) -> pb.CarPosWithElbow:
-    return pb.CarPosWithElbow(car_pos=hg_msg(pose), elbow=math.degrees(elbow), struct_flag=0)
+    return pb.CarPosWithElbow(car_pos=hg_msg(pose), elbow=float(rad_to_deg(elbow)), struct_flag=0)
 
 
 def alarm_msgs(snap: Snapshot, with_module: bool = True) -> list[pb.Alarm]:

@@ -14,8 +14,9 @@ import time
 
 import grpc
 
-from controller.gateway.grpc.base import Context, alarm_msgs, car_pos_msg
+from controller.gateway.grpc.base import alarm_msgs, car_pos_msg
 from controller.gateway.grpc.replies import spec_a_state
+from controller.gateway.services.context import Context
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import FrameType, UnitType

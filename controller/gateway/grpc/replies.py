@@ -1,57 +1,9 @@
-"""Spec A and JARA_ARM states of a snapshot (the codes themselves: controller.vocabulary)."""
+"""Spec A and JARA_ARM states of a snapshot: see :mod:`controller.gateway.services.states`
+(kept here for the servicers and tests that import them from the gRPC package)."""
 
 from __future__ import annotations
 
-from controller.contract.snapshot import Snapshot
+from controller.gateway.services.states import jara_state, spec_a_state
 from controller.vocabulary import CoreState, JaraState, SpecAState
-from hal.interface import HardwareState
 
-_CORE_TO_SPEC_A = {
-    CoreState.SERVO_OFF: SpecAState.SERVO_OFF,
-    CoreState.READY: SpecAState.READY,
-    CoreState.BUSY: SpecAState.BUSY,
-    CoreState.PAUSED: SpecAState.PAUSE,
-    CoreState.ALARM: SpecAState.ALARM,
-}
-
-_STATE_TEXT = {
-    SpecAState.UNPOWERED: "Unpowered: the hardware is not powered up (servoOn powers it)",
-    SpecAState.SERVO_OFF: "ServoOff: powered, servos off",
-    SpecAState.READY: "Ready: servos on, waiting for a command",
-    SpecAState.BUSY: "Busy: executing a motion",
-    SpecAState.PAUSE: "Pause: motion paused (resume or stop)",
-    SpecAState.ALARM: "Alarm: clearAlarms, then servoOn",
-}
-
-
-_UNPOWERED = (HardwareState.UNCONFIGURED, HardwareState.FINALIZED)
-
-
-def spec_a_state(s: Snapshot) -> tuple[SpecAState, str]:
-    """Spec A ``getState`` (statusId, message) of a snapshot."""
-    if s.core_state == CoreState.SERVO_OFF and s.hw_state in _UNPOWERED:
-        state = SpecAState.UNPOWERED
-    else:
-        state = _CORE_TO_SPEC_A[s.core_state]
-    text = _STATE_TEXT[state]
-    if state == SpecAState.BUSY and s.queue:
-        text += f" ({s.queue} queued)"
-    return state, text
-
-
-def jara_state(s: Snapshot) -> JaraState:
-    """JARA_ARM ``getState`` bit set of a snapshot."""
-    from controller.contract import snapshot as snap
-
-    bits = JaraState(0)
-    if s.flags & snap.F_SERVO_ON:
-        bits |= JaraState.SERVO_ON
-    if s.flags & snap.F_MOVING or s.queue:
-        bits |= JaraState.MOVING
-    if s.core_state == CoreState.ALARM:
-        bits |= JaraState.ALARM
-    if s.flags & snap.F_QUEUE_FULL:
-        bits |= JaraState.BUFFER_FULL
-    if s.core_state == CoreState.PAUSED:
-        bits |= JaraState.PAUSED
-    return bits
+__all__ = ["CoreState", "JaraState", "SpecAState", "jara_state", "spec_a_state"]

@@ -24,16 +24,16 @@ from controller.contract.motion_specs import (
     MotionSpec,
     VehicleMoveSpec,
 )
-from controller.contract.snapshot import Snapshot
+from controller.contract.snapshot import F_MOTION, Snapshot
 from controller.errors import Refused
+from controller.gateway.planning.dry_run import DRY_RUN_DT, dry_run
+from controller.gateway.planning.elbow_reach import ELBOW_TOL, reach_elbow
 from controller.gateway.planning.robot_view import RobotView
-from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
 from controller.qp.ik import WholeBodyIK
-from controller.qp.tasks import AxisTask, ControlPointTask, Task
-from controller.vocabulary import CoreState, ReturnCode, RightLeft
+from controller.vocabulary import ReturnCode, RightLeft
 
 Range = tuple[float, float]
 
@@ -52,12 +52,23 @@ class Planner:
     def base_q(self, snap: Snapshot, queued: bool) -> np.ndarray:
         """Configuration a new motion starts from: the measured one, or (queued behind
         running/queued motions) the planned end of the queue."""
-        idle = not snap.moving and snap.queue == 0 and snap.core_state == CoreState.READY
+        # No motion (running or paused), nothing moving, nothing queued, whatever the state
+        # (a stop, then a pause while idle leaves no motion behind): the robot stays where it
+        # is, and relative moves build on the measured state (issue 15.1).
+        idle = not snap.flags & F_MOTION and not snap.moving and snap.queue == 0
+        if idle:
+            self.forget_queue()
         if queued:
             if not idle and self.tail is not None:
                 return self.tail.copy()
             self.tail_poses.clear()  # nothing queued: plan from the measured state
         return self.view.measured_q(snap).copy()
+
+    def forget_queue(self) -> None:
+        """Nothing the gateway queued is left (stop, abort, servo off, alarm, or the queue
+        ran out): relative moves build on the measured state again."""
+        self.tail = None
+        self.tail_poses.clear()
 
     def remember(self, q_end: np.ndarray, poses: dict[RightLeft, pin.SE3] | None = None) -> None:
         """The end of the queue: configuration, and the exact target poses (original frame)
@@ -113,11 +124,34 @@ class Planner:
             reason = self.checker.check(kin, side, motion.path, motion.setup(), hold)  # type: ignore[attr-defined]
             q_end = self.checker.last_q.copy()
             limits = self.checker.path_parameter_limits()
+            if reason is None and elbow is not None:
+                self._check_elbow(side, q_end, elbow)
         if reason is not None:
             raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
         if math.isfinite(limits[0]):
             spec.path_limits = limits
         return spec, q_end
+
+    def _check_elbow(self, side: RightLeft, q_end: np.ndarray, elbow: float) -> None:
+        """VALUE_ERR when the elbow cannot reach ``elbow`` [rad] with the hand on the path's
+        end pose (configuration ``q_end`` of the checker); the comment names the joints."""
+        checker = self.checker
+        reached, at_limit = reach_elbow(
+            checker.kin, side, q_end, elbow, checker.q_min, checker.q_max
+        )
+        if not at_limit and abs(math.remainder(reached - elbow, math.tau)) < ELBOW_TOL:
+            return
+        why = (
+            f"limited by {', '.join(at_limit)} at {'its' if len(at_limit) == 1 else 'their'} "
+            "limit" + ("" if len(at_limit) == 1 else "s")
+            if at_limit
+            else "the arm cannot turn its elbow further there"
+        )
+        raise Refused(
+            ReturnCode.VALUE_ERR,
+            f"elbow: {math.degrees(elbow):.2f} deg is out of reach with the hand on the target: "
+            f"the elbow gets to {math.degrees(reached):.2f} deg ({why})",
+        )
 
     def pose_goal(
         self,
@@ -226,36 +260,23 @@ class Planner:
         )
 
     def dry_run(
-        self, snap: Snapshot, q0: np.ndarray, spec: MotionSpec, max_time: float = 600.0
+        self,
+        snap: Snapshot,
+        q0: np.ndarray,
+        spec: MotionSpec,
+        max_time: float = 600.0,
+        commanded: set[RedundantAxis] | None = None,
     ) -> str | None:
-        """Run ``spec`` on the planning copy with perfect drives at a coarse step
-        (:data:`DRY_RUN_DT`), with the daemon's own IK: None when it arrives (axis targets
-        reached, held control points kept), else why not. For motions whose reachability
-        the path check cannot see (CP-hold: the body moves under a held hand)."""
+        """Run ``spec`` on the planning copy with perfect drives and the daemon's own IK
+        (:func:`controller.gateway.planning.dry_run.dry_run`): None when it arrives, else why
+        not. For motions whose reachability the path check cannot see (CP-hold: the body
+        moves under a held hand). ``commanded``: the axes the request changes."""
         with self.lock, self.view.at(snap, q0) as kin:
             if self._dry_ik is None:
                 self._dry_ik = WholeBodyIK(kin, DRY_RUN_DT)
             ik = self._dry_ik
             ik.box.q_min, ik.box.q_max = self.checker.q_min.copy(), self.checker.q_max.copy()
-            motion = spec.build(kin, DRY_RUN_DT)
-            setup = motion.setup()
-            ik.tasks = setup.tasks
-            ik.configure(setup.frozen, setup.allowed, setup.ranges)
-            q, v = q0.copy(), np.zeros_like(q0)
-            settle = 0
-            for _ in range(int(max_time / DRY_RUN_DT)):
-                motion.advance()
-                result = ik.solve(q, v)
-                if not result.ok:
-                    return f"no joint motion can follow it: {result.message}"
-                v = result.velocity
-                q = q + v * DRY_RUN_DT
-                kin.update(q)
-                if motion.finished:
-                    settle += 1
-                    if settle * DRY_RUN_DT >= 1.0 or np.abs(v).max() < 1e-6:
-                        break
-            return _arrival_problem(kin, ik.tasks)
+            return dry_run(kin, ik, spec, q0, max_time, commanded)
 
     def cp_hold(
         self,
@@ -289,34 +310,6 @@ class Planner:
             planned_from=q0.copy(),
             label="vehicle move",
         )
-
-
-#: Step of :meth:`Planner.dry_run` [s].
-DRY_RUN_DT = 0.02
-#: Arrival tolerances of a dry run: axis [m or rad], held control point [m].
-AXIS_TOL = (0.005, math.radians(0.5))
-HOLD_TOL = 0.002
-
-
-def _arrival_problem(kin: Kinematics, tasks: list[Task]) -> str | None:
-    for task in tasks:
-        if isinstance(task, AxisTask):
-            err = abs(task.error(kin))
-            linear = task.axis in (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y)
-            if err > (AXIS_TOL[0] if linear else AXIS_TOL[1]):
-                shown = f"{1e3 * err:.0f} mm" if linear else f"{math.degrees(err):.1f} deg"
-                return (
-                    f"in a dry run {task.axis.value} stopped {shown} short of its target: the "
-                    "held control point(s) cannot follow that far (arm reach or joint limits)"
-                )
-        elif isinstance(task, ControlPointTask):
-            err = float(np.linalg.norm(task.error(kin)[:3]))
-            if err > HOLD_TOL:
-                return (
-                    f"in a dry run the {task.side.name} control point moved {1e3 * err:.1f} mm "
-                    "while held: the arm cannot keep it there (reach or joint limits)"
-                )
-    return None
 
 
 def min_duration(distance: np.ndarray, v_max: np.ndarray, a_max: np.ndarray) -> float:

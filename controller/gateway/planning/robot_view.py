@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from controller.contract.snapshot import Snapshot, SnapshotReader
+from controller.conversions import m_to_mm, rad_to_deg
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
 from controller.vocabulary import FrameType, RightLeft, UnitType
@@ -66,12 +67,12 @@ class RobotView:
         if unit == UnitType.VEHICLE:
             with self.at(snap) as kin:
                 x, y, th = kin.vehicle_pose()
-            return np.array([1e3 * x, 1e3 * y, np.degrees(th)])
+            return np.array([*m_to_mm([x, y]), rad_to_deg(th)])
         out = []
         for name in self.unit_joint_names(unit):
             spec = self.robot.joints[name]
             value = snap.q[self.hw_joints.index(name)]
-            out.append(np.degrees(value) if spec.kind == "revolute" else 1e3 * value)
+            out.append(rad_to_deg(value) if spec.kind == "revolute" else m_to_mm(value))
         return np.array(out)
 
     def pose(self, snap: Snapshot, side: RightLeft, frame: FrameType) -> tuple[pin.SE3, float]:

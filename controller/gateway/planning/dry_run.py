@@ -1,0 +1,109 @@
+"""Dry runs: a motion run on a planning copy of the kinematics with perfect drives at a coarse
+step, with the daemon's own IK, to see whether it arrives (axis targets reached, held control
+points kept). For motions whose reachability a path check cannot see (CP-hold: the body moves
+under a held hand). A refusal names the commanded axis that stopped short and the joints that
+ended at a limit (issue 16.9).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from controller.contract.motion_specs import MotionSpec
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis
+from controller.qp.ik import WholeBodyIK
+from controller.qp.tasks import AxisTask, ControlPointTask, Task
+
+#: Step of a dry run [s].
+DRY_RUN_DT = 0.02
+#: Arrival tolerances of a dry run: axis [m or rad], held control point [m].
+AXIS_TOL = (0.005, math.radians(0.5))
+HOLD_TOL = 0.002
+#: A joint this close to a limit [rad or m] is "at its limit" in a refusal.
+LIMIT_TOL = 1e-3
+
+
+def arrival_problem(
+    kin: Kinematics,
+    tasks: list[Task],
+    commanded: set[RedundantAxis] | None = None,
+    at_limit: list[str] | None = None,
+) -> str | None:
+    """Why a dry run did not arrive (None: it did). Commanded axes are named first, then held
+    control points, then axes only held along (the vehicle's other axes); the reason names
+    the joints that ended at a limit."""
+    binding = (
+        f"joints at their limits: {', '.join(at_limit)}"
+        if at_limit
+        else "the arm's reach (no joint at a limit)"
+    )
+    axis_tasks: list[AxisTask] = [t for t in tasks if isinstance(t, AxisTask)]
+    if commanded is not None:
+        axis_tasks.sort(key=lambda t: t.axis not in commanded)
+    held_axes: list[str] = []
+    for axis_task in axis_tasks:
+        err = abs(axis_task.error(kin))
+        linear = axis_task.axis in (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y)
+        if err <= (AXIS_TOL[0] if linear else AXIS_TOL[1]):
+            continue
+        shown = f"{1e3 * err:.0f} mm" if linear else f"{math.degrees(err):.1f} deg"
+        if commanded is not None and axis_task.axis not in commanded:
+            held_axes.append(f"{axis_task.axis.value} {shown}")
+            continue
+        return (
+            f"in a dry run {axis_task.axis.value} stopped {shown} short of its target: the "
+            f"held control point(s) cannot follow that far ({binding})"
+        )
+    for task in tasks:
+        if isinstance(task, ControlPointTask):
+            err = float(np.linalg.norm(task.error(kin)[:3]))
+            if err > HOLD_TOL:
+                return (
+                    f"in a dry run the {task.side.name} control point moved {1e3 * err:.1f} mm "
+                    f"while held: the arm cannot keep it there ({binding})"
+                )
+    if held_axes:
+        return (
+            f"in a dry run the axes held along drifted ({', '.join(held_axes)}) while the "
+            f"held control point(s) followed ({binding})"
+        )
+    return None
+
+
+def dry_run(
+    kin: Kinematics,
+    ik: WholeBodyIK,
+    spec: MotionSpec,
+    q0: np.ndarray,
+    max_time: float = 600.0,
+    commanded: set[RedundantAxis] | None = None,
+) -> str | None:
+    """Run ``spec`` from ``q0`` on ``kin`` with ``ik`` (its joint box set by the caller) at
+    :data:`DRY_RUN_DT`: None when it arrives, else why not. Leaves ``kin`` at the end."""
+    motion = spec.build(kin, DRY_RUN_DT)
+    setup = motion.setup()
+    ik.tasks = setup.tasks
+    ik.configure(setup.frozen, setup.allowed, setup.ranges)
+    q, v = q0.copy(), np.zeros_like(q0)
+    settle = 0
+    for _ in range(int(max_time / DRY_RUN_DT)):
+        motion.advance()
+        result = ik.solve(q, v)
+        if not result.ok:
+            return f"no joint motion can follow it: {result.message}"
+        v = result.velocity
+        q = q + v * DRY_RUN_DT
+        kin.update(q)
+        if motion.finished:
+            settle += 1
+            if settle * DRY_RUN_DT >= 1.0 or np.abs(v).max() < 1e-6:
+                break
+    at_limit = [
+        kin.joint_names[i]
+        for i in np.flatnonzero(~setup.frozen)
+        if q[i] - ik.box.q_min[i] < LIMIT_TOL or ik.box.q_max[i] - q[i] < LIMIT_TOL
+    ]
+    return arrival_problem(kin, ik.tasks, commanded, at_limit)
