@@ -17,6 +17,7 @@ import threading
 import numpy as np
 import pinocchio as pin
 
+from controller.bounds import MAX_MOTION_TIME
 from controller.contract.motion_specs import (
     CartesianMoveSpec,
     CPHoldSpec,
@@ -281,7 +282,7 @@ class Planner:
         snap: Snapshot,
         q0: np.ndarray,
         spec: MotionSpec,
-        max_time: float = 600.0,
+        max_time: float = MAX_MOTION_TIME,
         commanded: set[RedundantAxis] | None = None,
     ) -> str | None:
         """Run ``spec`` on the planning copy with perfect drives and the daemon's own IK
