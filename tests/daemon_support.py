@@ -42,7 +42,7 @@ class TestDaemon:
         self.monitor = pb_grpc.MonitorStub(self.channel)
 
     @property
-    def controller(self):  # type: ignore[no-untyped-def]
+    def controller(self) -> Any:
         return self.daemon.controller
 
     def state(self) -> int:

@@ -266,7 +266,29 @@ PROFILE_BREAKAGES = [
         "already in unit RIGHT_ARM",
         id="joint-in-two-units",
     ),
+    pytest.param(
+        "smartpal5",
+        _set("vehicle", "workspace", "x", value=[1, 10]),
+        "vehicle.workspace",
+        "must hold 0",
+        id="vehicle-workspace-without-the-origin",
+    ),
+    pytest.param(
+        "smartpal5",
+        _set("vehicle", "workspace", "theta", value=[-1e12, 720]),
+        "vehicle.workspace",
+        "beyond the interfaces' bound",
+        id="vehicle-workspace-beyond-the-edge-bound",
+    ),
 ]
+
+
+def test_every_shipped_vehicle_has_a_bounded_workspace() -> None:
+    for robot in robot_ids():
+        vehicle = load_robot(robot).profile.vehicle
+        if vehicle is not None:
+            lo, hi = vehicle.workspace.si()
+            assert all(lo < 0) and all(hi > 0) and all(hi - lo < 1e3)
 
 
 @pytest.mark.parametrize(("robot", "mutate", "key", "word"), PROFILE_BREAKAGES)

@@ -12,7 +12,7 @@ from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
-from controller.motion.reachability import POSITION_TOL, ReachabilityChecker
+from controller.motion.reachability import MAX_SAMPLES, POSITION_TOL, ReachabilityChecker
 from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
 
@@ -296,3 +296,11 @@ def test_path_parameter_limits_of_a_still_path_are_unbounded():
     kin = at_home("pa10")
     checker = ReachabilityChecker(kin)
     assert checker.path_parameter_limits() == (math.inf, math.inf)
+
+
+def test_a_path_with_too_many_samples_is_refused_without_sampling_it():
+    # issue 16.1: a 1e9 m path allocated 1e11 samples (MemoryError after 12-30 s)
+    kin = at_home("smartpal5")
+    for far in (1e9, 0.02 * MAX_SAMPLES):
+        reason = check(kin, line_from_hand(kin, (far, 0.0, 0.0)))
+        assert reason is not None and "too long to check" in reason

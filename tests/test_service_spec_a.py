@@ -671,7 +671,11 @@ SP5_CASES: list[Case] = [
         lambda d: pb.MovePTPCartesianRelRequest(type=RIGHT, rel_hg_mat=UP, time=1e5),
         "time",
     ),
-    ("MoveUnitRel", lambda d: _vehicle(rel_pos=[1e300, 0, 0]), "vehicle move"),
+    (
+        "MoveUnitRel",
+        lambda d: _vehicle(rel_pos=[1e300, 0, 0]),
+        "rel_pos[0]: 1e+300 mm is out of range",
+    ),
     # grippers
     ("MoveGripper", lambda d: pb.MoveGripperRequest(type=RIGHT, angle_ratio=101), "angle_ratio"),
     ("MoveGripper", lambda d: pb.MoveGripperRequest(type=3, angle_ratio=50), "type"),
@@ -853,11 +857,15 @@ def test_unreachable_targets_fail_before_motion(d: TestDaemon):
             "MovePTPCartesianRel",
             pb.MovePTPCartesianRelRequest(type=LEFT, rel_hg_mat=hg(p=(0, 0, 3000)), time=2.0),
         ),
-        (  # finite but absurd: no time law covers it
+        (  # within the edge bound (100 m) but beyond the arm: the reach check refuses
             "MoveLinearCartesianRel",
             pb.MoveLinearCartesianRelRequest(
-                type=RIGHT, rel_hg_mat=hg(p=(1e300, 0, 0)), speed=CART_SPEED, accel=CART_ACCEL
+                type=RIGHT, rel_hg_mat=hg(p=(20_000, 0, 0)), speed=CART_SPEED, accel=CART_ACCEL
             ),
+        ),
+        (
+            "MovePTPCartesianRel",
+            pb.MovePTPCartesianRelRequest(type=RIGHT, rel_hg_mat=hg(p=(0, 99_000, 0)), time=2.0),
         ),
     ):
         reply = getattr(d.spec_a, name)(request)

@@ -70,7 +70,7 @@ def test_a_joint_move_with_a_bad_gripper_value_sends_nothing():
     svc, _, channel = service()
     with pytest.raises(ArgumentError, match="gripper value"):
         svc.move_joints(RIGHT, [0.0] * 7 + [1e6], relative=True, stream=True)
-    with pytest.raises(ArgumentError, match="expected 7 joint values"):
+    with pytest.raises(ArgumentError, match="expected 7 or 8 joint values"):
         svc.move_joints(RIGHT, [0.0] * 9, relative=True, stream=False)
     assert channel.calls == []
     svc.move_joints(RIGHT, [0.0] * 7, relative=True, stream=False)

@@ -91,7 +91,7 @@ def test_tool_offset_and_ptp_time_bounds():
     far = [1, 0, 0, 2500.0, 0, 1, 0, 0, 0, 0, 1, 0]
     with pytest.raises(ArgumentError, match="not a plausible tool"):
         svc.set_control_point_offset(RIGHT, far)
-    with pytest.raises(ArgumentError, match="longer than 3600 s"):
+    with pytest.raises(ArgumentError, match="longer than 600 s"):
         svc.move_ptp(RIGHT, UP, 4000.0, False, True, "rel_hg_mat")
     with pytest.raises(ArgumentError, match="expected 12 numbers"):
         svc.move_ptp(RIGHT, UP[:11], 1.0, False, True, "rel_hg_mat")

@@ -16,6 +16,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
+from controller.bounds import ANGLE, LENGTH
 from controller.model.model_source import ModelSource, StrictModel, Vec3
 from controller.model.yaml_source import ConfigError, load_yaml_model
 
@@ -126,9 +127,45 @@ class Wheels(StrictModel):
     wheelbase: Positive | None = None
 
 
+Range = tuple[float, float]
+
+
+class VehicleWorkspace(StrictModel):
+    """Where the vehicle may take the body: its planar pose in the original frame, x and y
+    [m], heading theta [deg] (unwrapped), each ``(lower, upper)`` around the original frame.
+
+    Every vehicle target (moveUnit*, moveCPHold*, RedundantLimit ranges, Cartesian moves that
+    let the vehicle move) must lie inside; resetOriginalFrame re-centres it on the body.
+    """
+
+    x: Range = (-10.0, 10.0)
+    y: Range = (-10.0, 10.0)
+    theta: Range = (-720.0, 720.0)
+
+    @model_validator(mode="after")
+    def _check(self) -> VehicleWorkspace:
+        for name, (lo, hi), bound in (
+            ("x", self.x, LENGTH.limit / 1000.0),
+            ("y", self.y, LENGTH.limit / 1000.0),
+            ("theta", self.theta, ANGLE.limit),
+        ):
+            if not lo < 0.0 < hi:
+                raise ValueError(f"{name}: ({lo}, {hi}) must hold 0 (the original frame) inside")
+            if max(-lo, hi) > bound:
+                raise ValueError(f"{name}: ({lo}, {hi}) is beyond the interfaces' bound {bound:g}")
+        return self
+
+    def si(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners (x [m], y [m], theta [rad])."""
+        lo = np.array([self.x[0], self.y[0], np.radians(self.theta[0])])
+        hi = np.array([self.x[1], self.y[1], np.radians(self.theta[1])])
+        return lo, hi
+
+
 class Vehicle(StrictModel):
     type: Literal["omnidirectional", "differential"]
     wheels: Wheels
+    workspace: VehicleWorkspace = VehicleWorkspace()
 
 
 class RobotProfile(StrictModel):

@@ -42,6 +42,9 @@ MAX_ITER = 60
 SAMPLE_STEP = 0.01
 SAMPLE_ANGLE = math.radians(2)
 DAMPING = 1e-6
+#: Most samples one check follows (100 m at 1 cm): bounds the time and memory of a request;
+#: a longer path is refused (the gateway's reach check refuses far targets before this).
+MAX_SAMPLES = 10_000
 #: Smallest singular value [m/rad] of the constrained control-point Jacobian along a path.
 MIN_SINGULAR = 0.04
 #: Rotation rows are scaled by this length [m] to compare with translation rows.
@@ -77,6 +80,9 @@ class ReachabilityChecker:
         hold: RightLeft | None = None,
     ) -> str | None:
         """None when every sample of ``path`` is reachable from ``live.q``; else why not."""
+        too_long = _too_long(path, SAMPLE_STEP, SAMPLE_ANGLE)
+        if too_long is not None:
+            return too_long
         q, held = self._start(live, setup, hold)
         samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
@@ -138,6 +144,9 @@ class ReachabilityChecker:
         q, held = self._start(live, setup, hold)
         # Approach in steps so the local IK does not fold the arm through a limit.
         path = LinePath(self.kin.pose(side), target)
+        too_long = _too_long(path, 0.05, math.radians(10))
+        if too_long is not None:
+            return q, too_long
         for s in path.samples(0.05, math.radians(10))[1:]:
             q, err = self._solve(q, side, path.at(s), setup.frozen, hold, held)
             if err is not None:
@@ -230,3 +239,13 @@ class ReachabilityChecker:
         if at_limit:
             text += f"; joints at their limits: {', '.join(at_limit)}"
         return text
+
+
+def _too_long(path: LinePath | ArcPath, step: float, angle_step: float) -> str | None:
+    """Why ``path`` has too many samples to check (more than :data:`MAX_SAMPLES`), or None."""
+    if max(path.length / step, path.angle / angle_step) <= MAX_SAMPLES:
+        return None
+    return (
+        f"the path is too long to check ({1e3 * path.length:.0f} mm, at most "
+        f"{1e3 * step * MAX_SAMPLES:.0f} mm per move)"
+    )

@@ -19,6 +19,7 @@ import pinocchio as pin
 from controller.contract.snapshot import Snapshot
 from controller.conversions import hg_to_se3, rad_to_deg, se3_to_hg
 from controller.errors import ArgumentError, ChannelError, ImotionError
+from controller.gateway.grpc.validation import check_request
 from controller.gateway.planning.robot_view import RobotView
 from controller.gateway.services.arguments import finite_arg as finite_arg
 from controller.gateway.services.arguments import positive_arg as positive_arg
@@ -35,12 +36,15 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
 
     The dict holds the response's out-fields; an optional ``"comment"`` key replaces "OK"; a
     string is the comment alone. An :class:`ImotionError` becomes its code and comment.
+    Every numeric field of the request is bounded first (:func:`check_request`), before the
+    servicer runs: nothing is planned from an absurd number.
     """
 
     def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
         @functools.wraps(fn)
         def handler(self: Any, request: Any, context: Any) -> Any:
             try:
+                check_request(request)
                 outs = fn(self, request) or {}
                 if isinstance(outs, str):
                     outs = {"comment": outs}

@@ -9,6 +9,7 @@ import pinocchio as pin
 from controller.contract.motion_specs import MotionSpec
 from controller.contract.snapshot import Snapshot
 from controller.errors import ArgumentError, Refused
+from controller.gateway.planning.limits import require_pose_duration
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.redundancy import Range
 from controller.gateway.planning.relative import relative_pose
@@ -33,9 +34,11 @@ def plan_linear(
     ``tool_frame`` False/True, relative to where it is in the original / control-point frame)
     at ``speed`` [m/s, rad/s] and ``accel`` [m/s², rad/s²]."""
     q0 = planner.base_q(snap, queued=False)
+    with planner.view.at(snap, q0) as kin:
+        start = kin.pose(side)
     if tool_frame is not None:
-        with planner.view.at(snap, q0) as kin:
-            goal = relative_pose(kin.pose(side), goal, tool_frame=tool_frame)
+        goal = relative_pose(start, goal, tool_frame=tool_frame)
+    require_pose_duration(start, goal, speed, accel)
     try:
         spec, _ = planner.cartesian(
             snap,

@@ -18,9 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from controller.bounds import require_duration
 from controller.contract.motion_specs import CPHoldSpec
 from controller.contract.snapshot import Snapshot
 from controller.errors import ArgumentError, Refused
+from controller.gateway.planning.limits import require_in_workspace
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.redundancy import lumbar_range
 from controller.gateway.planning.relative import elbow_goal
@@ -96,6 +98,13 @@ def plan_cp_hold(
             if moving:
                 _positive(req, req.speed, accel=False)
                 _positive(req, req.accel, accel=True)
+                scale, unit = _rate_unit(req, accel=False)
+                distance = unit.removesuffix("/s")
+                v, a = scale * req.speed, scale * req.accel
+                require_duration(scale * delta, v, a, f"speed.{req.rate_field}", distance)
+                if axis.is_vehicle:
+                    name = f"{pos_name}.{req.field}"
+                    require_in_workspace(planner.view.robot, axis.vehicle_index, goal, name)
             elif not axis.is_vehicle:
                 continue  # not moving: held (its joints are frozen)
             if moving:

@@ -2,23 +2,29 @@
 step, with the daemon's own IK, to see whether it arrives (axis targets reached, held control
 points kept). For motions whose reachability a path check cannot see (CP-hold: the body moves
 under a held hand). A refusal names the commanded axis that stopped short and the joints that
-ended at a limit (issue 16.9).
+ended at a limit (issue 16.9). A CP-hold motion longer than :data:`DRY_RUN_MAX_TIME` is run
+faster (speeds × k, accelerations × k²: the same path in less time), so the planning time of
+a request does not grow with the duration it asks for (issue 16.12).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
-from controller.contract.motion_specs import MotionSpec
+from controller.bounds import MAX_MOTION_TIME, motion_time
+from controller.contract.motion_specs import CPHoldSpec, MotionSpec
 from controller.model.kinematics import Kinematics
-from controller.model.redundant_axes import RedundantAxis
+from controller.model.redundant_axes import RedundantAxis, axis_value
 from controller.qp.ik import WholeBodyIK
 from controller.qp.tasks import AxisTask, ControlPointTask, Task
 
 #: Step of a dry run [s].
 DRY_RUN_DT = 0.02
+#: Longest motion a dry run simulates [s] (slower CP-hold motions are run faster).
+DRY_RUN_MAX_TIME = 60.0
 #: Arrival tolerances of a dry run: axis [m or rad], held control point [m].
 AXIS_TOL = (0.005, math.radians(0.5))
 HOLD_TOL = 0.002
@@ -78,18 +84,18 @@ def dry_run(
     ik: WholeBodyIK,
     spec: MotionSpec,
     q0: np.ndarray,
-    max_time: float = 600.0,
+    max_time: float = MAX_MOTION_TIME,
     commanded: set[RedundantAxis] | None = None,
 ) -> str | None:
     """Run ``spec`` from ``q0`` on ``kin`` with ``ik`` (its joint box set by the caller) at
     :data:`DRY_RUN_DT`: None when it arrives, else why not. Leaves ``kin`` at the end."""
-    motion = spec.build(kin, DRY_RUN_DT)
+    motion = time_scaled(kin, spec).build(kin, DRY_RUN_DT)
     setup = motion.setup()
     ik.tasks = setup.tasks
     ik.configure(setup.frozen, setup.allowed, setup.ranges)
     q, v = q0.copy(), np.zeros_like(q0)
     settle = 0
-    for _ in range(int(max_time / DRY_RUN_DT)):
+    for _ in range(int((max_time + 1.0) / DRY_RUN_DT)):  # + the settling second
         motion.advance()
         result = ik.solve(q, v)
         if not result.ok:
@@ -107,3 +113,22 @@ def dry_run(
         if q[i] - ik.box.q_min[i] < LIMIT_TOL or ik.box.q_max[i] - q[i] < LIMIT_TOL
     ]
     return arrival_problem(kin, ik.tasks, commanded, at_limit)
+
+
+def time_scaled(kin: Kinematics, spec: MotionSpec) -> MotionSpec:
+    """``spec``, or for a CP-hold motion longer than :data:`DRY_RUN_MAX_TIME` (from ``kin``'s
+    state) the same motion time-scaled to that duration: same axis paths, so the same
+    arrival verdict."""
+    if not isinstance(spec, CPHoldSpec):
+        return spec
+    duration = max(
+        (
+            motion_time(goal - axis_value(kin, axis), float(v), float(a))
+            for (axis, goal), v, a in zip(spec.targets.items(), spec.speed, spec.accel, strict=True)
+        ),
+        default=0.0,
+    )
+    if duration <= DRY_RUN_MAX_TIME:
+        return spec
+    k = duration / DRY_RUN_MAX_TIME
+    return dataclasses.replace(spec, speed=spec.speed * k, accel=spec.accel * k * k)

@@ -17,6 +17,7 @@ import threading
 import numpy as np
 import pinocchio as pin
 
+from controller.bounds import MAX_MOTION_TIME
 from controller.contract.motion_specs import (
     CartesianMoveSpec,
     CPHoldSpec,
@@ -28,7 +29,9 @@ from controller.contract.snapshot import F_MOTION, Snapshot
 from controller.errors import Refused
 from controller.gateway.planning.dry_run import DRY_RUN_DT, dry_run
 from controller.gateway.planning.elbow_reach import ELBOW_TOL, reach_elbow
+from controller.gateway.planning.reach import out_of_reach
 from controller.gateway.planning.robot_view import RobotView
+from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
@@ -86,6 +89,17 @@ class Planner:
         self.checker.q_min[indices] = lower
         self.checker.q_max[indices] = upper
 
+    def require_reach(
+        self, kin: Kinematics, side: RightLeft, target: pin.SE3, allowed: dict[RedundantAxis, bool]
+    ) -> None:
+        """Refused(CANNOT_REACH_TARGET_ERR) for a target beyond any reach of the arm (checked
+        in microseconds, before a path to it is sampled)."""
+        vehicle = self.view.robot.profile.vehicle
+        workspace = vehicle.workspace.si() if vehicle is not None else None
+        reason = out_of_reach(kin, side, target, allowed, workspace)
+        if reason is not None:
+            raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
+
     # ------------------------------------------------------------------ motions
     def cartesian(
         self,
@@ -119,6 +133,9 @@ class Planner:
             label=label,
         )
         with self.lock, self.view.at(snap, q0) as kin:
+            for point in (target, via):
+                if point is not None:
+                    self.require_reach(kin, side, point, allowed)
             motion = spec.build(kin, self.dt)
             hold = other_side(side) if spec.hold_other else None
             reason = self.checker.check(kin, side, motion.path, motion.setup(), hold)  # type: ignore[attr-defined]
@@ -175,6 +192,7 @@ class Planner:
             hold_other=hold_other and other_side(side) in self.view.arms,
         )
         with self.lock, self.view.at(snap, q0) as kin:
+            self.require_reach(kin, side, target, allowed)
             setup = probe.build(kin, self.dt).setup()
             hold = other_side(side) if probe.hold_other else None
             q_goal, reason = self.checker.solve_pose(kin, side, target, setup, hold)
@@ -264,7 +282,7 @@ class Planner:
         snap: Snapshot,
         q0: np.ndarray,
         spec: MotionSpec,
-        max_time: float = 600.0,
+        max_time: float = MAX_MOTION_TIME,
         commanded: set[RedundantAxis] | None = None,
     ) -> str | None:
         """Run ``spec`` on the planning copy with perfect drives and the daemon's own IK

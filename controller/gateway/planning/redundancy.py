@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from controller.errors import ArgumentError
+from controller.gateway.planning.limits import require_range_in_workspace
 from controller.model.redundant_axes import RedundantAxis
 from controller.model.robot import Robot
 
@@ -26,7 +27,8 @@ def lumbar_range(robot: Robot, axis: RedundantAxis) -> Range:
 
 def axis_range(robot: Robot, axis: RedundantAxis, lower: float, upper: float, name: str) -> Range:
     """A selectRedundantAxes range (SI: [m] for vehicle x/y, [rad] otherwise), checked:
-    elbows within -180..180 deg, lumbar axes within the waist's range."""
+    elbows within -180..180 deg, lumbar axes within the waist's range, vehicle axes within
+    the vehicle workspace."""
     if upper < lower:
         raise ArgumentError(
             f"{name}: upper {_show(axis, upper)} is below lower {_show(axis, lower)}"
@@ -34,6 +36,8 @@ def axis_range(robot: Robot, axis: RedundantAxis, lower: float, upper: float, na
     if axis.is_elbow:
         if lower < -math.pi - 1e-9 or upper > math.pi + 1e-9:
             raise ArgumentError(f"{name}: elbow ranges lie within -180..180 deg")
+    elif axis.is_vehicle:
+        require_range_in_workspace(robot, axis.vehicle_index, lower, upper, name)
     elif axis.is_lumbar:
         hw_lo, hw_hi = lumbar_range(robot, axis)
         if lower < hw_lo - 1e-9 or upper > hw_hi + 1e-9:

@@ -11,9 +11,11 @@ import math
 
 import numpy as np
 
+from controller.bounds import require_duration
 from controller.contract.motion_specs import MotionSpec
 from controller.contract.snapshot import Snapshot
 from controller.errors import ArgumentError
+from controller.gateway.planning.limits import require_in_workspace
 from controller.gateway.planning.planner import Planner
 from controller.model.robot import JointSpec
 from controller.vocabulary import UnitType
@@ -59,13 +61,24 @@ def plan_unit_move(
     relative: bool,
 ) -> MotionSpec:
     """A unit move from the measured state (Spec A never queues): joints to ``target`` (or by
-    it, ``relative``), the vehicle to the pose ``target`` in the original frame (or by it)."""
+    it, ``relative``), the vehicle to the pose ``target`` in the original frame (or by it).
+    The vehicle's target must lie in its workspace; no move may take longer than the longest
+    motion (VALUE_ERR)."""
     q0 = planner.base_q(snap, queued=False)
     target = np.asarray(target, dtype=float)
+    pos_name = "rel_pos" if relative else "abs_pos"
     if unit == UnitType.VEHICLE:
+        with planner.view.at(snap, q0) as kin:
+            start = kin.vehicle_pose()
         if relative:
-            with planner.view.at(snap, q0) as kin:
-                target = target + kin.vehicle_pose()
+            target = target + start
+        for i in range(3):
+            require_in_workspace(planner.view.robot, i, float(target[i]), f"{pos_name}[{i}]")
+        travel = float(np.hypot(*(target - start)[:2]))
+        turn = abs(float(target[2] - start[2]))
+        deg = math.degrees(1.0)
+        require_duration(1e3 * travel, 1e3 * speed[0], 1e3 * accel[0], "speed[0]", "mm")
+        require_duration(deg * turn, deg * speed[1], deg * accel[1], "speed[1]", "deg")
         return planner.vehicle(
             q0, target, (float(speed[0]), float(speed[1])), (float(accel[0]), float(accel[1]))
         )
@@ -73,4 +86,10 @@ def plan_unit_move(
     joints = np.array([planner.view.kin.index(j) for j in names])
     if relative:
         target = target + q0[joints]
+    for i, name in enumerate(names):
+        spec = planner.view.robot.joints[name]
+        scale, shown = (math.degrees(1.0), "deg") if spec.kind == "revolute" else (1e3, "mm")
+        delta = float(target[i] - q0[joints[i]])
+        v, a = scale * float(speed[i]), scale * float(accel[i])
+        require_duration(scale * delta, v, a, f"speed[{i}] ({name})", shown)
     return planner.joint(q0, joints, target, speed, accel, label=f"{unit.name} move", absolute=True)

@@ -28,6 +28,7 @@ from controller.gateway.planning.jara_arm import (
     joint_target,
     to_arm_frame,
 )
+from controller.gateway.planning.limits import require_arc
 from controller.gateway.services.context import Context
 from controller.model.redundant_axes import RedundantAxis, elbow_axis
 from controller.vocabulary import CoreState, ReturnCode, RightLeft, UnitType
@@ -141,6 +142,8 @@ class JaraArmService:
         via: CarPos | None = None,
     ) -> str | None:
         settings = self.arms[side]
+        if via is not None and relative:  # relative to the start: the start is the origin
+            require_arc(np.zeros(3), via.pose.translation, target.pose.translation)
         snap, q0 = self._start_state()
         planner = self.ctx.planner
         with planner.lock:
@@ -151,6 +154,9 @@ class JaraArmService:
                     via_pose, _ = cartesian_target(
                         planner, kin, side, settings, via, relative, "carPointR"
                     )
+                    start = planner.tail_pose(side)
+                    start = kin.pose(side) if start is None else start
+                    require_arc(start.translation, via_pose.translation, goal.translation)
             speed, accel = settings.cartesian_speed()
             allowed = {elbow_axis(side): True} if elbow is not None else {}
             with unreachable_is_value_err():

@@ -25,6 +25,7 @@ from controller.conversions import (
 )
 from controller.errors import ArgumentError, Refused
 from controller.gateway.planning.jara_arm import NO_BOX_MM, ArmSettings
+from controller.gateway.planning.limits import require_cartesian_speed, require_tool_offset
 from controller.gateway.services.arguments import finite_arg, finite_values, positive_arg
 from controller.gateway.services.jara_arm import JaraArmService
 from controller.vocabulary import CoreState, ReturnCode, RightLeft, UnitType
@@ -110,7 +111,7 @@ class JaraSettingsService:
                 )
         snap = self.ctx.snapshot()
         if snap.core_state == CoreState.ALARM:
-            raise Refused(ReturnCode.STATUS_ERR, "not in alarm: clearAlarms first")
+            raise Refused(ReturnCode.STATUS_ERR, "alarms are active: clearAlarms first")
         self._require_still()
         joints = self.arms.joints(side)
         with self.arms.lock:
@@ -163,14 +164,16 @@ class JaraSettingsService:
             self._push_box(side)
 
     def set_control_point_offset(self, side: RightLeft, hg_mm: np.ndarray | Sequence[float]):
-        offset = _hg(hg_mm, "offset")
+        offset = require_tool_offset(_hg(hg_mm, "offset"), "offset")
         self.ctx.call("set_control_point_offset", side=side, offset=offset.homogeneous)
 
     # ------------------------------------------------------------------ speeds
     def set_max_speed_cartesian(self, side: RightLeft, translation: float, rotation: float):
-        """[mm/s], [deg/s]."""
+        """[mm/s], [deg/s]; at most what the arm can do with every joint at its speed limit."""
         t = positive_arg(translation, "speed.translation", "mm/s")
         r = positive_arg(rotation, "speed.rotation", "deg/s")
+        with self.ctx.view.at(self.ctx.snapshot()) as kin:
+            require_cartesian_speed(kin, side, (t, r))
         self._arm(side).max_speed_cartesian = (t, r)
 
     def set_max_speed_joint(self, side: RightLeft, speeds: Sequence[float]) -> None:
@@ -298,8 +301,10 @@ class JaraSettingsService:
             extra = finite_arg(vals.pop(), f"jointPoints[{n}] (gripper)")
             ratio = self.gripper_ratio(side, extra)
         if len(vals) != n:
-            what = f"{n} joints{' + 1 gripper' if has_gripper else ''}"
-            raise ArgumentError(f"jointPoints: expected {n} joint values ({what}), got {len(vals)}")
+            what = f"{n} joint values ({n} joints)"
+            if has_gripper:
+                what = f"{n} or {n + 1} joint values ({n} joints, optionally + 1 gripper)"
+            raise ArgumentError(f"jointPoints: expected {what}, got {len(values)}")
         arr = finite_values(vals, "jointPoints")
         if stream:
             result = self.arms.stream_joint(side, arr, relative)

@@ -17,11 +17,13 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
+from controller.bounds import MAX_MOTION_TIME
 from controller.contract.snapshot import Snapshot
 from controller.conversions import deg_to_rad, finite_array, hg_to_se3, mm_to_m
 from controller.errors import ArgumentError, Refused
 from controller.gateway.planning.cartesian import plan_linear, plan_ptp
 from controller.gateway.planning.cp_hold import AxisRequest, plan_cp_hold
+from controller.gateway.planning.limits import require_tool_offset, vehicle_workspace
 from controller.gateway.planning.redundancy import Range, axis_range
 from controller.gateway.planning.unit_moves import check_unit_rates, plan_unit_move
 from controller.gateway.services.arguments import finite_arg, finite_values, positive_arg
@@ -30,10 +32,8 @@ from controller.gateway.services.states import spec_a_state
 from controller.model.redundant_axes import RedundantAxis, available_axes, elbow_axis
 from controller.vocabulary import ReturnCode, RightLeft, SpecAState, UnitType
 
-#: Farthest control point from the flange [m].
-MAX_TOOL_OFFSET = 2.0
-#: Longest movePTPCartesian time [s] (the time law fails on much longer ones).
-MAX_PTP_TIME = 3600.0
+#: Longest movePTPCartesian time [s]: the longest motion of any request.
+MAX_PTP_TIME = MAX_MOTION_TIME
 
 #: RedundantPos fields (deg; vehicle x, y in mm) and the axis each sets.
 POS_FIELDS: dict[str, tuple[RedundantAxis, ...]] = {
@@ -115,13 +115,7 @@ class SpecAService:
         self, side: RightLeft, offset_hg: np.ndarray | Sequence[float]
     ) -> None:
         """The control point in the flange frame: HgMatrix [mm], at most 2000 mm away."""
-        offset = pose_arg(offset_hg, "offset")
-        distance = float(np.linalg.norm(offset.translation))
-        if distance > MAX_TOOL_OFFSET:
-            raise ArgumentError(
-                f"offset: {1e3 * distance:.0f} mm from the flange is not a plausible tool "
-                f"(limit {1e3 * MAX_TOOL_OFFSET:.0f} mm)"
-            )
+        offset = require_tool_offset(pose_arg(offset_hg, "offset"), "offset")
         self.ctx.call("set_control_point_offset", side=side, offset=offset.homogeneous)
 
     def select_redundant_axes(
@@ -160,8 +154,17 @@ class SpecAService:
         return f"OK (this robot has no {', '.join(ignored)}: ignored)" if ignored else None
 
     def mask(self) -> tuple[dict[RedundantAxis, bool], dict[RedundantAxis, Range | None]]:
+        """Usable axes and their ranges; a vehicle axis without a range keeps to the vehicle
+        workspace."""
         with self._settings:
-            return dict(self.allowed), dict(self.ranges)
+            allowed, ranges = dict(self.allowed), dict(self.ranges)
+        workspace = vehicle_workspace(self.ctx.robot)
+        if workspace is not None:
+            for axis in allowed:
+                if axis.is_vehicle and ranges.get(axis) is None:
+                    i = axis.vehicle_index
+                    ranges[axis] = (float(workspace[0][i]), float(workspace[1][i]))
+        return allowed, ranges
 
     # ------------------------------------------------------------------ unit moves
     def move_unit(
