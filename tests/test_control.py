@@ -126,6 +126,23 @@ def test_a_plan_from_an_old_state_is_refused(ctl: Controller):
     assert err.code == ReturnCode.STATUS_ERR and "send it again" in err.comment
 
 
+def test_the_checked_plan_is_the_one_executed(ctl: Controller):
+    """One plan per motion (issue 9): the loop runs the path planned (and checked) from
+    ``planned_from``, not a re-plan from where the robot happens to be; the live kinematics
+    are left at the measured configuration."""
+    ready(ctl)
+    measured = ctl.core.kin.q.copy()
+    spec = j1_move(ctl, 0.3)
+    planned = measured.copy()
+    planned[0] += 1e-3  # within PLAN_TOLERANCE of the measured state
+    spec.planned_from = planned
+    ctl.cmd_start(spec)
+    motion = ctl.core.motion
+    assert motion is not None
+    np.testing.assert_array_equal(motion.path.start, planned[[0]])  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(ctl.core.kin.q, measured)
+
+
 def test_unknown_and_failing_commands_answer_ng(ctl: Controller):
     answers = []
 

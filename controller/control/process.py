@@ -38,6 +38,7 @@ from controller.control.soft_limits import CartesianSoftLimits
 from controller.errors import ImotionError, Refused
 from controller.model.alarms import AlarmCode
 from controller.model.robot import Robot
+from controller.motion.motions import Motion
 from controller.vocabulary import CoreState, ReturnCode
 from hal.interface import HardwareInterface
 
@@ -176,10 +177,26 @@ class Controller(Commands):
             self.soft_limits.check()
 
     def _start(self, spec: MotionSpec) -> None:
-        self.core.start(spec.build(self.core.kin, self.dt))
+        self.core.start(self._instantiate(spec))
         self._running_motion = self.core.motion
         self.started += 1
         _log.info("motion started: %s", spec.label)
+
+    def _instantiate(self, spec: MotionSpec) -> Motion:
+        """The motion the gateway checked: built at the configuration it was planned from
+        (``spec.planned_from``; the JARA queue's planned end for a queued motion), so its
+        path and time law are the checked ones, not a re-plan from where the robot happens
+        to be. The motion then runs on the live kinematics. A motion started at once was
+        refused before this if the robot moved more than PLAN_TOLERANCE since planning."""
+        kin = self.core.kin
+        if spec.planned_from is None:
+            return spec.build(kin, self.dt)
+        measured = kin.q.copy()
+        kin.update(spec.planned_from)
+        try:
+            return spec.build(kin, self.dt)
+        finally:
+            kin.update(measured)
 
     def _shutdown_step(self) -> bool:
         """True when the loop should end (shutdown requested and the robot is safe)."""
