@@ -1,4 +1,4 @@
-"""Black box (controller/daemon/blackbox.py ring + controller/service/blackbox_writer.py).
+"""Black box (controller/control/blackbox.py ring + controller/gateway/observe/blackbox_writer.py).
 
 The ring is checked alone (order, wrap-around, rows torn by a concurrent writer); then a
 daemon on ``--hal ideal`` with ``blackbox.dir`` set gets an injected alarm, and the MCAP file

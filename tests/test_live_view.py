@@ -1,4 +1,4 @@
-"""Live view (controller/service/live_view.py) through a Foxglove-protocol WebSocket client.
+"""Live view (controller/gateway/observe/live_view.py) through a Foxglove-protocol WebSocket client.
 
 A daemon on ``--hal ideal`` (realtime off) serves the view on 127.0.0.1 (port 0); the client
 (controller/client/foxglove_ws.py, websockets) subscribes to every channel and checks each

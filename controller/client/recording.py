@@ -14,7 +14,7 @@ topic                  schema                content
 ====================== ===================== ================================================
 
 The daemon's black-box files (``blackbox.dir``) use the topics listed in
-``controller/service/foxglove_msgs.py``; :func:`read_mcap` reads both kinds (needs the
+``controller/gateway/observe/foxglove_msgs.py``; :func:`read_mcap` reads both kinds (needs the
 ``mcap`` package, extra ``plot``).
 """
 
