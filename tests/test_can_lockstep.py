@@ -33,3 +33,4 @@ def test_full_wait_then_two_periods_while_stalled_then_full_again():
     assert gate.wait({"a": 5})
     assert [t for _, t in partner.calls] == [1.0, 1.0, 0.004, 0.004, 1.0]
     assert gate.timeouts == 2 and partner.calls[0][0] == {"a": 1}
+    assert gate.waited >= 0.0

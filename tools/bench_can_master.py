@@ -56,8 +56,24 @@ def _stats(ns: list[int]) -> dict[str, float]:
     }
 
 
+class CycleClock:
+    """The backend's clock [s]: moves one period per cycle (:meth:`step`), so heartbeat and
+    TPDO supervision see the loop's time however the host stalls the benchmark."""
+
+    def __init__(self, dt: float):
+        self.dt = dt
+        self.t = 1000.0
+
+    def __call__(self) -> float:
+        return self.t
+
+    def step(self) -> None:
+        self.t += self.dt
+
+
 def stub_backend(robot_id: str = "smartpal5", rate: float = 500.0) -> CanBackend:
-    """A configured, active CanBackend of ``robot_id`` on stub buses (module doc)."""
+    """A configured, active CanBackend of ``robot_id`` on stub buses (module doc); its clock
+    is a :class:`CycleClock` (``backend._clock``)."""
     robot = load_robot(robot_id)
     profile = load_drive_profile(drives_path(robot), robot)
     dt = 1.0 / rate
@@ -71,8 +87,13 @@ def stub_backend(robot_id: str = "smartpal5", rate: float = 500.0) -> CanBackend
             [d.velocity_feedback for d in drives],
             heartbeat_every=every,
         )
+    clock = CycleClock(dt)
+
+    def sleep(_seconds: float) -> None:
+        clock.step()
+
     backend = CanBackend(
-        robot, dt, profile, bus_factory=lambda name, _kw: buses[name], sleep=lambda _s: None
+        robot, dt, profile, bus_factory=lambda name, _kw: buses[name], clock=clock, sleep=sleep
     )
     backend.configure()
     backend.read()
@@ -115,8 +136,9 @@ def measure_master(
     """The CAN master's per-cycle cost [µs] for ``robot_id`` at ``rate`` [Hz], measured alone
     on stub buses (module doc): ``cycle`` (read + write) statistics, per-phase p50 and mean, drive
     and bus counts, load average. Runs ``warmup`` + ``cycles`` cycles twice, back to back
-    (no sleeping: the cost, not the rate)."""
+    (no sleeping: the cost, not the rate; the backend's clock moves one period per cycle)."""
     backend = stub_backend(robot_id, rate)
+    step = backend._clock.step  # type: ignore[attr-defined]
     try:
         base = backend.read().position.copy()
         phase = np.linspace(0.0, 2.0 * np.pi, len(base), endpoint=False)
@@ -129,6 +151,7 @@ def measure_master(
             backend.read()
             backend.write(command)
             t1 = clock()
+            step()
             if k >= warmup:
                 total.append(t1 - t0)
         ns: dict[str, list[int]] = {name: [] for name in PHASES}
@@ -136,6 +159,7 @@ def measure_master(
             command_array = base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase)
             with backend._lock:
                 _phases(backend, command_array, ns)
+            step()
             if k < warmup:
                 for values in ns.values():
                     values.clear()

@@ -256,6 +256,12 @@ class CanBackend(HardwareInterface):
         """Lockstep waits that timed out since construction."""
         return self._gate.timeouts
 
+    @property
+    def lockstep_waited(self) -> float:
+        """Time [s] ``read()``/``write()`` spent waiting for the lockstep partner since
+        construction: subtracted from their time, what remains is the master's own work."""
+        return self._gate.waited
+
     def _wait_lockstep(self) -> None:
         if self._gate.partner is not None:
             self._gate.wait(self.syncs_sent)

@@ -38,7 +38,9 @@ class JointMap:
         self.scale = ScalingArray([d.scaling() for d in cfgs])
         n = len(cfgs)
         self.has_velocity = np.array([d.velocity_feedback for d in cfgs], dtype=bool)
-        self._any_velocity = bool(self.has_velocity.any())
+        #: Drives with TPDO2 (velocity actual) and their counts per SI unit.
+        self._vel_idx = [int(i) for i in np.flatnonzero(self.has_velocity)]
+        self._vel_factor = self.scale.factor[self._vel_idx]
         wheels = profile.wheels
         self.wheel_idx = [self.drive_names.index(w) for w in wheels]
         self.vehicle: VehicleMapping | None = None
@@ -70,6 +72,8 @@ class JointMap:
         self._wheel_raw = [0] * len(wheels)
         self._wheel_seen = [False] * len(wheels)
         self._vehicle_started = False
+        #: Every wheel reports its velocity (TPDO2): odometry twist from speeds.
+        self._wheel_speeds = bool(wheels) and bool(self.has_velocity[self.wheel_idx].all())
         #: Joint state [rad]/[m] and [rad/s]/[m/s] in :attr:`joint_names` order.
         self.position = np.zeros(len(self.joint_names))
         self.velocity = np.zeros(len(self.joint_names))
@@ -123,17 +127,14 @@ class JointMap:
             self.vel /= self.dt
         else:
             np.copyto(self.vel, (pos - prev) / self.dt, where=fresh)
-        if self._any_velocity:
-            self.vel[self.has_velocity] = (
-                np.asarray(raw_velocity, dtype=float)[self.has_velocity]
-                / self.scale.factor[self.has_velocity]
-            )
+        if self._vel_idx:
+            self.vel[self._vel_idx] = [raw_velocity[i] for i in self._vel_idx] / self._vel_factor
         self.position[self.joint_idx] = pos[self.joint_drive]
         self.velocity[self.joint_idx] = self.vel[self.joint_drive]
         vehicle = self.vehicle
         if vehicle is not None and all(self._wheel_seen):
             wheels = pos[self.wheel_idx]
-            speeds = self.vel[self.wheel_idx] if self.has_velocity[self.wheel_idx].all() else None
+            speeds = self.vel[self.wheel_idx] if self._wheel_speeds else None
             if self._vehicle_started:
                 vehicle.measure(wheels, speeds, self.dt)
             else:

@@ -13,6 +13,7 @@ Real buses (``--hal can``) have no partner: supervision stays on the wire's timi
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Mapping
 from typing import Protocol
 
@@ -40,13 +41,19 @@ class LockstepGate:
         self.stalled = False
         #: Waits that timed out.
         self.timeouts = 0
+        #: Time spent waiting for the partner [s] (the master's own share of a cycle is the
+        #: cycle's time minus this).
+        self.waited = 0.0
 
     def wait(self, sent: Mapping[str, int]) -> bool:
         """Until the partner answered ``sent`` SYNCs per bus (True), or the bound passed."""
         if self.partner is None:
             return True
         timeout = 2 * self.dt if self.stalled else self.timeout
-        if self.partner.wait_answered(sent, timeout):
+        start = time.perf_counter()
+        answered = self.partner.wait_answered(sent, timeout)
+        self.waited += time.perf_counter() - start
+        if answered:
             self.stalled = False
             return True
         if not self.stalled:

@@ -173,6 +173,8 @@ class Supervisor:
 
     def heartbeats(self, now: float) -> list[HardwareFault]:
         """Faults for drives whose last heartbeat is older than the consumer time."""
+        if now - self.last_heartbeat.min() <= self.heartbeat_timeout:
+            return []
         late = (now - self.last_heartbeat > self.heartbeat_timeout) & ~self.reported
         if not late.any():
             return []
