@@ -7,7 +7,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
-from bench_can_master import PHASES, measure_master  # noqa: E402
+from bench_can_master import PHASES, measure_master
 
 
 def test_measure_master_reports_cycle_and_phases():

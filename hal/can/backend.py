@@ -62,7 +62,7 @@ from hal.can.joints import JointMap, joint_names
 from hal.can.lockstep import Lockstep, LockstepGate
 from hal.can.ports import BusFactory, Port, bus_kwargs, close_ports, open_ports
 from hal.can.setup import interpolation_period, set_up_drives
-from hal.can.supervision import DriveError, Supervisor
+from hal.can.supervision import DriveError, Supervisor, tpdo_timeouts
 from hal.interface import (
     HardwareFault,
     HardwareInterface,
@@ -135,7 +135,8 @@ class CanBackend(HardwareInterface):
         cfgs = [profile.drives[n] for n in self.drive_names]
         self.node_ids = [d.node_id for d in cfgs]
         self.drive_bus = [d.bus for d in cfgs]
-        cycles, seconds = self._tpdo_timeouts()
+        extra = {b: _ports.split_supervision(o)[1] for b, o in self._bus_options.items()}
+        cycles, seconds = tpdo_timeouts(profile, self.drive_bus, extra)
         self._supervisor = Supervisor(
             self.drive_names,
             self.node_ids,
@@ -168,25 +169,6 @@ class CanBackend(HardwareInterface):
         self._lock = threading.RLock()
         self._keepalive: threading.Thread | None = None
         self._keepalive_stop = threading.Event()
-
-    def _tpdo_timeouts(self) -> tuple[list[int], list[float]]:
-        """TPDO timeout per drive: cycles and [s] (0 = cycles only): the bus's, else the
-        profile's; ``bus_options`` over the profile's bus settings."""
-        profile, cycles, seconds = self.profile, [], []
-        for bus in self.drive_bus:
-            cfg = profile.buses[bus]
-            extra = _ports.split_supervision(self._bus_options.get(bus, {}))[1]
-            n = extra.get("tpdo_timeout_cycles", cfg.tpdo_timeout_cycles)
-            ms = extra.get("tpdo_timeout_ms", cfg.tpdo_timeout_ms)
-            n = profile.tpdo_timeout_cycles if n is None else n
-            ms = profile.tpdo_timeout_ms if ms is None else ms
-            if not isinstance(n, int) or isinstance(n, bool) or n < 1:
-                raise ValueError(f"bus {bus}: tpdo_timeout_cycles must be an integer >= 1")
-            if ms is not None and (not isinstance(ms, int | float) or ms < 0):
-                raise ValueError(f"bus {bus}: tpdo_timeout_ms must be a number >= 0")
-            cycles.append(n)
-            seconds.append((ms or 0.0) / 1e3)
-        return cycles, seconds
 
     # ----------------------------------------------------------------------------- queries
     @property

@@ -5,9 +5,9 @@ selected buses), the parsed arguments and a console, and returns the exit status
 1 a drive or bus failed; :class:`ToolError` also means 1). Command-line parsing is
 :mod:`hal.can.tool`.
 
-``enable``, ``disable`` and ``jog`` run the backend's own bus set-up (:mod:`hal.can.ports`),
-SDO set-up (:mod:`hal.can.setup`) and cycle I/O (:mod:`hal.can.cycle`) for one drive: RPDO1,
-SYNC and the master heartbeat at the profile's rate. ``scan`` only listens and reads 0x1018
+``enable``, ``disable`` and ``jog`` run the backend's own bus set-up, SDO set-up and cycle
+I/O for one drive (:mod:`hal.can.one_drive`): RPDO1, SYNC and the master heartbeat at the
+profile's rate. ``scan`` only listens and reads 0x1018
 over SDO from drive nodes (never from the master's own node id): it does not disturb a
 running master.
 """
@@ -18,12 +18,11 @@ import argparse
 import math
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
 import can
-import numpy as np
 from canopen.sdo import SdoVariable
 from rich.console import Console
 from rich.table import Table
@@ -32,21 +31,15 @@ from controller.model.robot import Robot, load_robot
 from controller.model.yaml_source import ConfigError
 from hal.can import busload, pdo
 from hal.can.cia402 import Goal, State, decode
-from hal.can.cycle import CycleIO
 from hal.can.drive_profile import DEFAULT_EDS, DriveConfig, DriveProfile, drives_path, eds_path
 from hal.can.drive_profile import load_drive_profile as _load
-from hal.can.ports import Port, bus_kwargs, close_ports, open_ports
-from hal.can.setup import SetupNetwork, set_up_drives
-from hal.can.supervision import Supervisor
-from hal.interface import HardwareFault
+from hal.can.one_drive import OneDrive, ToolError, one_drive
+from hal.can.ports import bus_kwargs
+from hal.can.setup import SetupNetwork
 
 #: Fraction of the joint's profile speed a jog uses by default.
 JOG_SPEED_FRACTION = 0.1
 IDENTITY = ("vendor", "product", "revision", "serial")
-
-
-class ToolError(Exception):
-    """A drive or bus failed (exit status 1)."""
 
 
 class Context:
@@ -218,92 +211,13 @@ def cmd_state(ctx: Context, args: argparse.Namespace, out: Console) -> int:
     return 1 if failed else 0
 
 
-class OneDrive:
-    """One drive's master on its own bus: the backend's cycle I/O at the profile rate.
-
-    Supervision is off (this is a bring-up tool); faults found while sending or receiving
-    (bus errors, EMCY) end the operation with :class:`ToolError`."""
-
-    def __init__(self, ctx: Context, port: Port, name: str, dt: float):
-        drive = ctx.drive(name)
-        self.name = name
-        self.dt = dt
-        self.faults: list[HardwareFault] = []
-        supervisor = Supervisor(
-            [name], [drive.node_id], [drive.bus], dt, np.array([math.inf]), 1.0, math.inf, 1
-        )
-        period = ctx.profile.heartbeat.master_producer_ms / 1e3
-        self.io = CycleIO([port], [drive.node_id], supervisor, self.faults.extend,
-                          time.monotonic, period)  # fmt: skip
-
-    @property
-    def actual(self) -> int:
-        """Position actual [counts] of the last TPDO1."""
-        return self.io.position[0]
-
-    @property
-    def state(self) -> State:
-        return self.io.states[0]
-
-    def cycle(self, target: int | None = None) -> State:
-        """RPDO1 (``target`` [counts] once enabled, else hold), SYNC, heartbeat; then one
-        period of receiving. Returns the drive's state."""
-        io = self.io
-        if target is None or self.state is not State.OPERATION_ENABLED:
-            io.hold_targets()
-        else:
-            io.target[0] = target
-        io.send()
-        now = time.monotonic()
-        io.send_heartbeat(now)
-        io.clear_fresh()
-        io.receive(now + self.dt)
-        if (left := now + self.dt - time.monotonic()) > 0:
-            time.sleep(left)
-        io.receive()
-        io.decode_states()
-        if self.faults:
-            raise ToolError("; ".join(f"0x{f.code:03X} {f.description}" for f in self.faults))
-        return self.state
-
-    def run_to(self, goal: Goal, timeout: float) -> State:
-        self.io.set_goal(goal)
-        want = State.OPERATION_ENABLED if goal is Goal.ENABLED else State.SWITCH_ON_DISABLED
-        end = time.monotonic() + timeout
-        state = State.UNKNOWN
-        while time.monotonic() < end:
-            state = self.cycle()
-            if state is want:
-                break
-        return state
-
-
-@contextmanager
-def one_drive(ctx: Context, args: argparse.Namespace, name: str) -> Iterator[OneDrive]:
-    """Open the drive's bus, set the drive up, run its master; quick stop + disable at exit."""
-    drive = ctx.drive(name)
-    dt = 1.0 / ctx.profile.rate_hz
-    ports = open_ports(ctx.profile, [drive.bus], [drive.node_id], [drive.bus], ctx.overrides)
-    try:
-        port = ports[0]
-        master = OneDrive(ctx, port, name, dt)
-        beat = lambda: master.io.send_heartbeat(time.monotonic())  # noqa: E731
-        set_up_drives(port.bus, port.name, [name], ctx.profile, ctx.directory, dt,
-                      args.sdo_timeout, beat)  # fmt: skip
-        try:
-            yield master
-        finally:
-            master.faults.clear()
-            try:
-                master.run_to(Goal.OFF, 0.5)
-            except ToolError:
-                pass  # the bus failed: the drive stops on the missing heartbeat
-    finally:
-        close_ports(ports)
+def _one_drive(ctx: Context, args: argparse.Namespace) -> AbstractContextManager[OneDrive]:
+    ctx.drive(args.drive)  # on a selected bus
+    return one_drive(ctx.profile, ctx.directory, args.drive, ctx.overrides, args.sdo_timeout)
 
 
 def cmd_enable(ctx: Context, args: argparse.Namespace, out: Console) -> int:
-    with one_drive(ctx, args, args.drive) as m:
+    with _one_drive(ctx, args) as m:
         state = m.run_to(Goal.ENABLED, args.timeout)
         out.print(f"{args.drive}: {state.value}")
         if state is not State.OPERATION_ENABLED:
@@ -316,7 +230,7 @@ def cmd_enable(ctx: Context, args: argparse.Namespace, out: Console) -> int:
 
 
 def cmd_disable(ctx: Context, args: argparse.Namespace, out: Console) -> int:
-    with one_drive(ctx, args, args.drive) as m:
+    with _one_drive(ctx, args) as m:
         m.cycle()
     out.print(f"{args.drive}: {m.state.value}")
     return 0
@@ -335,7 +249,7 @@ def cmd_jog(ctx: Context, args: argparse.Namespace, out: Console) -> int:
         speed, lower, upper = 0.5, -math.inf, math.inf
     if args.speed is not None:
         speed = min(to_si(args.speed), speed / JOG_SPEED_FRACTION)
-    with one_drive(ctx, args, args.drive) as m:
+    with _one_drive(ctx, args) as m:
         if m.run_to(Goal.ENABLED, args.timeout) is not State.OPERATION_ENABLED:
             raise ToolError(f"{args.drive}: not enabled within {args.timeout} s")
         start = scaling.to_si(m.actual)

@@ -33,11 +33,37 @@ import numpy as np
 
 from controller.model.alarms import AlarmCode
 from hal.can.cia402 import State
+from hal.can.drive_profile import DriveProfile
 from hal.can.pdo import emcy_name
 from hal.interface import HardwareFault
 
 EMCY_FOLLOWING_ERROR = 0x8611
 EMCY_HEARTBEAT = 0x8130
+
+
+def tpdo_timeouts(
+    profile: DriveProfile,
+    drive_bus: Sequence[str],
+    overrides: dict[str, dict[str, object]] | None = None,
+) -> tuple[list[int], list[float]]:
+    """TPDO timeout per drive (on bus ``drive_bus[i]``): cycles and [s] (0 = cycles only).
+    Per bus: ``overrides[bus]`` (``tpdo_timeout_cycles``, ``tpdo_timeout_ms``), else the bus's
+    own settings in the profile, else the profile's. ValueError on a bad value."""
+    cycles, seconds = [], []
+    for bus in drive_bus:
+        cfg = profile.buses[bus]
+        extra = (overrides or {}).get(bus, {})
+        n = extra.get("tpdo_timeout_cycles", cfg.tpdo_timeout_cycles)
+        ms = extra.get("tpdo_timeout_ms", cfg.tpdo_timeout_ms)
+        n = profile.tpdo_timeout_cycles if n is None else n
+        ms = profile.tpdo_timeout_ms if ms is None else ms
+        if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+            raise ValueError(f"bus {bus}: tpdo_timeout_cycles must be an integer >= 1, got {n!r}")
+        if ms is not None and (not isinstance(ms, int | float) or isinstance(ms, bool) or ms < 0):
+            raise ValueError(f"bus {bus}: tpdo_timeout_ms must be a number >= 0, got {ms!r}")
+        cycles.append(n)
+        seconds.append(float(ms or 0.0) / 1e3)
+    return cycles, seconds
 
 
 class DriveError(RuntimeError):
