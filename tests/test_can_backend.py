@@ -6,6 +6,7 @@ Every test runs the CAN backend against the drive emulator in one process over p
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Mapping
 
 import can
@@ -516,3 +517,20 @@ def test_master_alone_counts_its_frames_and_heartbeat_is_public():
     rig.backend.shutdown()
     # Counters survive the shutdown (which sends one more quick-stop round).
     assert all(rig.backend.frames_sent[n] > counted[n] for n in counted)
+
+
+def test_configure_logs_one_line_per_drive_and_no_canopen_chatter(
+    hil: Hil, caplog: pytest.LogCaptureFixture
+):
+    """canopen logged ~1100 INFO lines at SmartPal V's set-up (hil); now one line per drive."""
+    canopen_log = logging.getLogger("canopen")
+    saved = canopen_log.level
+    canopen_log.setLevel(logging.NOTSET)
+    try:
+        with caplog.at_level(logging.INFO):
+            hil.configure()
+    finally:
+        canopen_log.setLevel(saved)
+    assert not [r for r in caplog.records if r.name.startswith("canopen")]
+    setup_lines = [r for r in caplog.records if r.getMessage().startswith("set up ")]
+    assert len(setup_lines) == len(hil.profile.drives)
