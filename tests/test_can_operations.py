@@ -12,6 +12,7 @@ import pytest
 
 from hal.can import pdo
 from hal.can.backend import CanBackend
+from hal.can.drive_profile import Heartbeat, drives_path, load_drive_profile
 from hal.can.tool import main
 from hal.emulator.emulator import DriveEmulator
 from hal.interface import HardwareState, JointCommand
@@ -23,7 +24,11 @@ def running_master():
     """pa10's drives (emulator threads) driven by a CanBackend cycling in a thread."""
     r = robot("pa10")
     dt = 0.004
-    emu = DriveEmulator(r, period=dt)
+    # Generous heartbeat consumers: a loaded host may stall the threads for a while, and
+    # this test is about the scan, not about heartbeat timing.
+    slow = Heartbeat(drive_consumer_ms=5000, master_consumer_ms=5000)
+    profile = load_drive_profile(drives_path(r), r).model_copy(update={"heartbeat": slow})
+    emu = DriveEmulator(r, profile, period=dt)
     emu.start()
     backend = CanBackend(
         r, dt, emu.profile, bus_factory=lambda n, _kw: emu.open_master_bus(n), lockstep=emu
@@ -55,7 +60,7 @@ def test_scan_beside_a_running_master_neither_probes_it_nor_disturbs_it(
     sniffer = can.Bus(interface=interface, channel=channel)
     try:
         argv = ["--robot", "pa10", "--bus", "arm_a", "--interface", interface,
-                "--channel", channel, "scan", "--listen", "0.3"]  # fmt: skip
+                "--channel", channel, "--sdo-timeout", "2", "scan", "--listen", "1"]  # fmt: skip
         assert main(argv) == 0
         out = capsys.readouterr().out
         rows = {line.split("│")[2].strip(): line for line in out.splitlines() if "│" in line}
@@ -78,11 +83,12 @@ def test_enable_drives_one_drive_with_the_backends_cycle(capsys: pytest.CaptureF
     emu.start()
     try:
         interface, channel = emu.channels["arm_b"]
-        on = ["--robot", "pa10", "--bus", "arm_b", "--interface", interface, "--channel", channel]
-        assert main(["enable", "J5", "--hold", "0.05", *on]) == 0
+        on = ["--robot", "pa10", "--bus", "arm_b", "--interface", interface, "--channel", channel,
+              "--sdo-timeout", "2"]  # fmt: skip
+        assert main(["enable", "J5", "--hold", "0.05", "--timeout", "5", *on]) == 0
         assert "J5: operation enabled" in capsys.readouterr().out
         assert emu.drives["J5"].nmt_state == 0x05
-        assert main(["disable", "J5", *on]) == 0
+        assert main(["disable", "J5", "--timeout", "5", *on]) == 0
         assert "J5: switch on disabled" in capsys.readouterr().out
     finally:
         emu.close()
