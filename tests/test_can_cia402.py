@@ -12,7 +12,7 @@ from hal.can.cia402 import STATUSWORD, DriveMaster, Goal, State, decode
 from hal.can.drive_profile import DEFAULT_EDS
 from hal.can.setup import SetupNetwork, interpolation_period, set_up_drive
 from hal.emulator.emulator import DriveEmulator
-from tests.can_support import FakeClock
+from tests.can_support import SDO_TIMEOUT, FakeClock
 from tests.support import robot
 
 
@@ -101,7 +101,7 @@ class Frames:
         self.emu.start()
         try:
             for bus_name, bus in self.buses.items():
-                net = SetupNetwork(bus)
+                net = SetupNetwork(bus, SDO_TIMEOUT)
                 for drive in self.profile.drives_on(bus_name).values():
                     node = net.node(drive.node_id, DEFAULT_EDS)
                     set_up_drive(node, drive, self.profile, interpolation_period(self.DT))
