@@ -19,6 +19,9 @@ from hal.emulator.emulator import DriveEmulator
 from hal.interface import JointCommand, JointState
 from tests.support import robot as cached_robot
 
+#: [s] per SDO request at set-up in the harness.
+SDO_TIMEOUT = 2.0
+
 
 class FakeClock:
     """Monotonic seconds that move only when told."""
@@ -66,6 +69,9 @@ class Hil:
             dt,
             self.profile,
             bus_factory=lambda name, _kw: self.emulator.open_master_bus(name),
+            # The set-up runs the emulator's threads in real time: on a loaded host an SDO
+            # answer may take longer than the 0.3 s default (these tests are not about it).
+            sdo_timeout=SDO_TIMEOUT,
             clock=self.clock,
             sleep=self.sleep,
         )

@@ -6,7 +6,8 @@ Every test runs the CAN backend against the drive emulator in one process over p
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import logging
+from collections.abc import Callable, Mapping
 
 import can
 import numpy as np
@@ -17,11 +18,14 @@ from controller.model.alarms import AlarmCode
 from controller.motion.motions import JointMotion
 from controller.vocabulary import UnitType
 from hal.can import pdo
-from hal.can.backend import Port
+from hal.can.backend import CanBackend, Port
 from hal.can.cia402 import CW_ENABLE_OPERATION
+from hal.can.drive_profile import drives_path, load_drive_profile
+from hal.can.stub_bus import StubDrivesBus
 from hal.can.supervision import DriveError
 from hal.interface import HardwareState, JointCommand, JointState
-from tests.can_support import Hil
+from tests.can_support import FakeClock, Hil
+from tests.support import robot
 
 #: Controlword bits that command torque with motion (enable operation = bits 0-3 set).
 ENABLE_BITS = CW_ENABLE_OPERATION
@@ -221,14 +225,19 @@ def test_lockstep_sends_no_round_before_the_last_is_answered(hil: Hil):
     hil.cycle()
     hil.backend.lockstep = Partner(hil)
     backend, emulator = hil.backend, hil.emulator
-    send, checked = backend._send, []
+    checked: list[bool] = []
 
-    def checked_send(port: Port, msg: can.Message) -> bool:
-        if msg.arbitration_id == pdo.SYNC:
-            checked.append(emulator.sync_counts()[port.name] == backend.syncs_sent[port.name])
-        return send(port, msg)
+    def checked_send(port: Port, send: Callable[..., None]) -> Callable[..., None]:
+        def check_then_send(msg: can.Message, timeout: float | None = None) -> None:
+            if msg.arbitration_id == pdo.SYNC:
+                answered = emulator.sync_counts()[port.name]
+                checked.append(answered == backend.syncs_sent[port.name])
+            send(msg, timeout)
 
-    backend._send = checked_send  # type: ignore[method-assign]
+        return check_then_send
+
+    for port in backend.io.ports:
+        port.bus.send = checked_send(port, port.bus.send)  # type: ignore[method-assign]
     bare_cycle(hil)
     backend.activate()
     bare_cycle(hil)
@@ -397,3 +406,131 @@ def test_smartpal_full_stack_on_five_buses(rate: int):
         assert all(sent[b] > 0 for b in hil.profile.buses)
     finally:
         hil.close()
+
+
+# ------------------------------------------------------------- stub drives (no emulator)
+class StubRig:
+    """The backend on stub buses (precomputed answers), a fake clock, no emulator."""
+
+    def __init__(self, bus_options: dict | None = None):
+        r = robot("smartpal5")
+        self.profile = load_drive_profile(drives_path(r), r)
+        self.clock = FakeClock()
+        self.opened: dict[str, dict] = {}
+        self.buses = {}
+        for name in self.profile.buses:
+            drives = list(self.profile.drives_on(name).values())
+            self.buses[name] = StubDrivesBus(
+                name,
+                [d.node_id for d in drives],
+                [d.velocity_feedback for d in drives],
+                heartbeat_every=10,
+            )
+
+        def factory(name: str, kwargs: dict) -> can.BusABC:
+            self.opened[name] = kwargs
+            return self.buses[name]
+
+        try:
+            self.backend = CanBackend(
+                r, 0.002, self.profile, bus_options=bus_options, bus_factory=factory,
+                clock=self.clock, sleep=self.sleep,
+            )  # fmt: skip
+        except BaseException:
+            for bus in self.buses.values():
+                bus.shutdown()
+            raise
+
+    def sleep(self, seconds: float) -> None:
+        self.clock.t += seconds
+
+    def cycle(self) -> None:
+        state = self.backend.read()
+        self.backend.write(JointCommand(state.position))
+        self.sleep(0.002)
+
+
+def cycles_to_fault(rig: StubRig) -> int:
+    for k in range(1, 50):
+        rig.cycle()
+        if rig.backend.state is HardwareState.FAULT:
+            return k
+    raise AssertionError("no fault")
+
+
+def test_per_bus_tpdo_timeout_in_time_from_bus_options():
+    """A bus bridged over a network (remote interface): its TPDO timeout in cycles and ms
+    comes with its python-can settings, which python-can never sees."""
+    options = {"body": {"interface": "remote", "channel": "ws://127.0.0.1:1/",
+                        "tpdo_timeout_cycles": 4, "tpdo_timeout_ms": 20}}  # fmt: skip
+    rig = StubRig(options)
+    assert rig.backend.bus_kwargs("body") == {"interface": "remote", "channel": "ws://127.0.0.1:1/"}
+    rig.backend.configure()
+    assert "tpdo_timeout_ms" not in rig.opened["body"]
+    rig.cycle()
+    rig.backend.activate()
+    rig.buses["body"].muted.add(rig.profile.drives["wheel_2"].node_id)
+    # The first cycle still reads the TPDOs of the SYNC before the mute; then 20 ms at 2 ms.
+    assert cycles_to_fault(rig) == 1 + 10
+    assert [(f.code, f.source) for f in rig.backend.faults()] == [
+        (AlarmCode.TPDO_TIMEOUT, "wheel_2")
+    ]
+    assert "ms)" in rig.backend.faults()[0].description
+    rig.backend.shutdown()
+
+
+def test_other_buses_keep_the_profile_timeout_in_cycles():
+    rig = StubRig({"body": {"tpdo_timeout_ms": 20}})
+    rig.backend.configure()
+    rig.cycle()
+    rig.backend.activate()
+    rig.buses["arm_r_wrist"].muted.add(rig.profile.drives["r_arm_j5"].node_id)
+    assert cycles_to_fault(rig) == 1 + rig.profile.tpdo_timeout_cycles
+    rig.backend.shutdown()
+
+
+def test_bad_supervision_options_are_refused():
+    with pytest.raises(ValueError, match="tpdo_timeout_cycles"):
+        StubRig({"body": {"tpdo_timeout_cycles": 0}})
+    with pytest.raises(ValueError, match="tpdo_timeout_ms"):
+        StubRig({"body": {"tpdo_timeout_ms": "soon"}})
+
+
+def test_master_alone_counts_its_frames_and_heartbeat_is_public():
+    rig = StubRig()
+    rig.backend.configure()
+    rig.cycle()
+    rig.backend.activate()
+    sent = rig.backend.frames_sent
+    for _ in range(10):
+        rig.cycle()
+    assert rig.backend.state is HardwareState.ACTIVE and not rig.backend.faults()
+    after = rig.backend.frames_sent
+    for name in rig.profile.buses:
+        # Per cycle: one RPDO1 per drive and one SYNC (plus heartbeats when due).
+        assert after[name] - sent[name] >= 10 * (len(rig.profile.drives_on(name)) + 1)
+    before = sum(rig.backend.frames_sent.values())
+    rig.sleep(1.0)
+    rig.backend.send_heartbeat()
+    assert sum(rig.backend.frames_sent.values()) == before + len(rig.profile.buses)
+    counted = rig.backend.frames_sent
+    rig.backend.shutdown()
+    # Counters survive the shutdown (which sends one more quick-stop round).
+    assert all(rig.backend.frames_sent[n] > counted[n] for n in counted)
+
+
+def test_configure_logs_one_line_per_drive_and_no_canopen_chatter(
+    hil: Hil, caplog: pytest.LogCaptureFixture
+):
+    """canopen logged ~1100 INFO lines at SmartPal V's set-up (hil); now one line per drive."""
+    canopen_log = logging.getLogger("canopen")
+    saved = canopen_log.level
+    canopen_log.setLevel(logging.NOTSET)
+    try:
+        with caplog.at_level(logging.INFO):
+            hil.configure()
+    finally:
+        canopen_log.setLevel(saved)
+    assert not [r for r in caplog.records if r.name.startswith("canopen")]
+    setup_lines = [r for r in caplog.records if r.getMessage().startswith("set up ")]
+    assert len(setup_lines) == len(hil.profile.drives)

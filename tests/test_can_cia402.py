@@ -8,12 +8,11 @@ import can
 import pytest
 
 from hal.can import cia402, pdo
-from hal.can.backend import interpolation_period
 from hal.can.cia402 import STATUSWORD, DriveMaster, Goal, State, decode
 from hal.can.drive_profile import DEFAULT_EDS
-from hal.can.setup import SetupNetwork, set_up_drive
+from hal.can.setup import SetupNetwork, interpolation_period, set_up_drive
 from hal.emulator.emulator import DriveEmulator
-from tests.can_support import FakeClock
+from tests.can_support import SDO_TIMEOUT, FakeClock
 from tests.support import robot
 
 
@@ -67,6 +66,26 @@ def test_fault_reset_is_a_bit7_edge_then_off():
     assert m.goal is Goal.OFF and not m.faulted
 
 
+def test_repeated_inputs_give_the_same_controlword_and_a_reset_starts_high():
+    """The per-cycle shortcut (same statusword and goal -> the last controlword) changes no
+    answer: state follows the statusword, a new goal is seen, a reset edge starts at 0x80."""
+    m = DriveMaster()
+    m.goal = Goal.ENABLED
+    enabled = STATUSWORD[State.OPERATION_ENABLED]
+    assert [m.controlword(enabled) for _ in range(3)] == [0x0F, 0x0F, 0x0F]
+    assert m.enabled
+    m.goal = Goal.OFF
+    assert m.controlword(enabled) == 0x02
+    fault = STATUSWORD[State.FAULT]
+    assert [m.controlword(fault) for _ in range(2)] == [0x00, 0x00] and m.faulted
+    m.goal = Goal.RESET
+    assert m.controlword(fault) == 0x80
+    m.goal = Goal.OFF  # the backend gives up the reset after one edge
+    assert m.controlword(fault) == 0x00
+    m.goal = Goal.RESET
+    assert [m.controlword(fault) for _ in range(2)] == [0x80, 0x00]
+
+
 # ------------------------------------------------------------------ frame level, emulated
 class Frames:
     """pa10's emulated drives; frames to drive J3 (node 3 on bus arm_a) by hand."""
@@ -82,7 +101,7 @@ class Frames:
         self.emu.start()
         try:
             for bus_name, bus in self.buses.items():
-                net = SetupNetwork(bus)
+                net = SetupNetwork(bus, SDO_TIMEOUT)
                 for drive in self.profile.drives_on(bus_name).values():
                     node = net.node(drive.node_id, DEFAULT_EDS)
                     set_up_drive(node, drive, self.profile, interpolation_period(self.DT))

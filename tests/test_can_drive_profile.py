@@ -65,6 +65,8 @@ CASES = [
     (lambda d: d["heartbeat"].update(master_consumer_ms=50), "master_consumer_ms must exceed"),
     (lambda d: d.update(robot="pa10"), "robot: 'pa10' but the robot profile is 'smartpal5'"),
     (lambda d: d.update(extra=1), "extra"),
+    (lambda d: d.update(tpdo_timeout_ms=-1), "tpdo_timeout_ms"),
+    (lambda d: d["buses"]["body"].update(tpdo_timeout_cycles=0), "buses.body.tpdo_timeout_cycles"),
 ]
 
 
@@ -95,3 +97,14 @@ def test_syntax_error_names_the_line(tmp_path: Path):
     path.write_text("robot: [unclosed\n")
     with pytest.raises(ConfigError, match="line"):
         load_drive_profile(path)
+
+
+def test_tpdo_timeouts_per_profile_and_per_bus(tmp_path: Path):
+    def remote(d: dict) -> None:
+        d["tpdo_timeout_ms"] = 10
+        d["buses"]["body"].update(tpdo_timeout_cycles=10, tpdo_timeout_ms=30)
+
+    p = load_drive_profile(broken(tmp_path, remote), robot("smartpal5"))
+    assert p.tpdo_timeout_ms == 10 and p.tpdo_timeout_cycles == 3
+    assert (p.buses["body"].tpdo_timeout_cycles, p.buses["body"].tpdo_timeout_ms) == (10, 30)
+    assert p.buses["arm_r_wrist"].tpdo_timeout_ms is None

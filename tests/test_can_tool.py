@@ -88,3 +88,43 @@ def test_bad_arguments_exit_2(capsys: pytest.CaptureFixture[str]):
     assert main(["--robot", "pa10", "--bus", "arm_a", "enable", "J7"]) == 2
     assert main(["--robot", "pa10", "sdo", "write", "J1", "0x6065"]) == 2
     assert "needs --bus" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------- command line
+def test_global_options_go_before_or_after_the_operation(capsys: pytest.CaptureFixture[str]):
+    assert main(["plan", "--robot", "smartpal5"]) == 0  # the README's own example
+    assert "smartpal5" in capsys.readouterr().out
+    assert main(["--robot", "smartpal5", "plan", "--robot", "pa10", "--rate", "250"]) == 0
+    out = capsys.readouterr().out
+    assert "pa10" in out and "250 Hz" in out
+    assert main(["--robot", "pa10", "plan"]) == 0 and "pa10" in capsys.readouterr().out
+
+
+def test_version(capsys: pytest.CaptureFixture[str]):
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.startswith("imotion-can ")
+
+
+@pytest.mark.parametrize(
+    ("argv", "hint"),
+    [
+        (["scn"], "did you mean 'scan'?"),
+        (["plan", "--raet", "100"], "did you mean '--rate'?"),
+        (["--robt", "pa10", "plan"], "did you mean '--robot'?"),
+        (["scan", "--lisen", "1"], "did you mean '--listen'?"),
+        (["sdo", "raed", "J1", "0x1000"], "did you mean 'read'?"),
+    ],
+)
+def test_did_you_mean(argv: list[str], hint: str, capsys: pytest.CaptureFixture[str]):
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    assert done.value.code == 2
+    assert hint in capsys.readouterr().err
+
+
+def test_nothing_close_gets_no_hint(capsys: pytest.CaptureFixture[str]):
+    with pytest.raises(SystemExit):
+        main(["xyzzy"])
+    assert "did you mean" not in capsys.readouterr().err

@@ -111,18 +111,25 @@ class DriveMaster:
     Call :meth:`controlword` once per cycle with the latest statusword; send what it returns.
     """
 
-    __slots__ = ("_reset_high", "goal", "state")
+    __slots__ = ("_last", "_reset_high", "goal", "state")
 
     def __init__(self) -> None:
         self.goal = Goal.OFF
         self.state = State.UNKNOWN
         self._reset_high = False
+        #: (statusword, goal, controlword) of the last call outside RESET: the same inputs
+        #: give the same controlword (the steady state of every cycle, no decoding).
+        self._last: tuple[int | None, Goal, int] | None = None
 
     def controlword(self, statusword: int | None) -> int:
         """The controlword for this cycle given the latest statusword (None: none yet)."""
-        state = self.state = State.UNKNOWN if statusword is None else decode(statusword)
         goal = self.goal
+        last = self._last
+        if last is not None and last[0] == statusword and last[1] is goal:
+            return last[2]
+        state = self.state = State.UNKNOWN if statusword is None else decode(statusword)
         if goal is Goal.RESET:
+            self._last = None
             if state is State.FAULT:
                 # Edge: bit 7 low in one cycle, high in the next.
                 self._reset_high = not self._reset_high
@@ -132,9 +139,9 @@ class DriveMaster:
                 return CW_DISABLE_VOLTAGE
             self.goal = goal = Goal.OFF
         self._reset_high = False
-        if goal is Goal.ENABLED:
-            return _ENABLE[state]
-        return _OFF[state]
+        cw = _ENABLE[state] if goal is Goal.ENABLED else _OFF[state]
+        self._last = (statusword, goal, cw)
+        return cw
 
     @property
     def enabled(self) -> bool:

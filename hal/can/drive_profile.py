@@ -47,6 +47,7 @@ VEHICLE_JOINTS = ("vehicle_x", "vehicle_y", "vehicle_theta")
 NodeId = Annotated[int, Field(ge=1, le=127)]
 PositiveInt = Annotated[int, Field(gt=0)]
 Positive = Annotated[float, Field(gt=0)]
+NonNegative = Annotated[float, Field(ge=0)]
 
 
 class BusConfig(StrictModel):
@@ -61,6 +62,10 @@ class BusConfig(StrictModel):
     fd: bool = False
     #: Data-phase bitrate [bit/s] (CAN FD only).
     data_bitrate: PositiveInt | None = None
+    #: TPDO timeout of the drives on this bus (None: the profile's), e.g. a bus bridged over
+    #: a network whose TPDOs may come in a cycle late: cycles in a row, and [ms].
+    tpdo_timeout_cycles: PositiveInt | None = None
+    tpdo_timeout_ms: NonNegative | None = None
 
     @model_validator(mode="after")
     def _check_fd(self) -> BusConfig:
@@ -156,6 +161,8 @@ class DriveProfile(StrictModel):
     eds: str | None = None
     #: Stale feedback: a drive whose TPDO1 is missing this many cycles in a row alarms (0x405).
     tpdo_timeout_cycles: PositiveInt = 3
+    #: ... and, when set, for at least this long [ms] (a time bound for late remote buses).
+    tpdo_timeout_ms: NonNegative | None = None
     #: Quick stop (0x6007 abort connection option code) on a heartbeat loss.
     abort_connection_option: Annotated[int, Field(ge=-32768, le=32767)] = 3
     heartbeat: Heartbeat = Heartbeat()

@@ -11,17 +11,20 @@ Per drive, in this order (objects of the contract, docs/can.md):
    TPDO2 = 0x606C (enabled only with ``velocity_feedback``); transmission type 1 (SYNC).
 7. NMT start (operational).
 
-The master heartbeat is sent between drives so drives that still consume it from an earlier
-run do not time out during a long set-up.
+The master heartbeat is sent between steps (the caller's ``beat``) so drives that still
+consume it from an earlier run do not time out during a long set-up.
+
+The caller hands over an open python-can bus and what to set up (:func:`set_up_drives`);
+this module knows nothing of the backend.
 """
 
 from __future__ import annotations
 
 import functools
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import can
 import canopen
@@ -33,13 +36,28 @@ from hal.can.drive_profile import DriveConfig, DriveProfile, eds_path
 from hal.can.supervision import DriveError
 from hal.interface import HardwareFault
 
-if TYPE_CHECKING:
-    from hal.can.backend import CanBackend, Port
-
 log = logging.getLogger(__name__)
 
 #: How often canopen's receive thread wakes while the set-up runs [s].
 NOTIFIER_TIMEOUT = 0.02
+
+
+def quiet_canopen() -> None:
+    """canopen logs every SDO and PDO step at INFO (~490 lines at SmartPal V's set-up): its
+    loggers go to WARNING unless asked for, i.e. unless the ``canopen`` logger has a level
+    of its own or the root logger is at DEBUG."""
+    logger = logging.getLogger("canopen")
+    if logger.level == logging.NOTSET and logging.getLogger().getEffectiveLevel() > logging.DEBUG:
+        logger.setLevel(logging.WARNING)
+
+
+def interpolation_period(dt: float) -> tuple[int, int]:
+    """0x60C2 (value u8, index i8) with value·10^index = ``dt`` [s]."""
+    for index in (-3, -4, -5, -6):
+        value = dt * 10.0**-index
+        if abs(value - round(value)) < 1e-6 and 1 <= round(value) <= 255:
+            return round(value), index
+    raise ValueError(f"the period {dt!r} s has no exact 0x60C2 representation")
 
 
 @functools.cache
@@ -55,6 +73,7 @@ class SetupNetwork:
     """
 
     def __init__(self, bus: can.BusABC, sdo_timeout: float = 0.3):
+        quiet_canopen()
         self.network = canopen.Network(bus)
         self.network.notifier = can.Notifier(bus, self.network.listeners, NOTIFIER_TIMEOUT)
         self.sdo_timeout = sdo_timeout
@@ -156,32 +175,35 @@ def _map(pdo_map: Any, cob_id: int, objects: tuple[int, ...], enabled: bool) -> 
     pdo_map.save()
 
 
-def set_up_drives(backend: CanBackend, port: Port) -> None:
-    """Set up every drive of ``port`` (raises :class:`DriveError` naming the drive)."""
-    from hal.can.backend import interpolation_period
-
-    profile = backend.profile
-    period = interpolation_period(backend.dt)
-    net = SetupNetwork(port.bus, backend.sdo_timeout)
-
-    def beat() -> None:
-        backend._send_heartbeat(backend._clock())
-
+def set_up_drives(
+    bus: can.BusABC,
+    bus_name: str,
+    names: Sequence[str],
+    profile: DriveProfile,
+    directory: Path,
+    dt: float,
+    sdo_timeout: float = 0.3,
+    beat: Callable[[], None] = lambda: None,
+) -> None:
+    """Set up drives ``names`` of ``profile`` on the open ``bus`` for loop period ``dt`` [s]
+    (EDS paths relative to ``directory``); ``beat`` after every step sends the master's
+    heartbeat when due. Raises :class:`DriveError` naming the drive."""
+    period = interpolation_period(dt)
+    net = SetupNetwork(bus, sdo_timeout)
     try:
-        for i in port.drives:
-            name = backend.drive_names[i]
+        for name in names:
             drive = profile.drives[name]
-            eds = eds_path(profile, name, backend.directory)
+            eds = eds_path(profile, name, directory)
             try:
                 node = net.node(drive.node_id, eds)
             except (OSError, ValueError) as exc:
-                raise setup_error(name, drive.node_id, port.name, f"EDS {eds}", exc) from exc
+                raise setup_error(name, drive.node_id, bus_name, f"EDS {eds}", exc) from exc
             try:
                 set_up_drive(node, drive, profile, period, beat)
             except _Failed as failed:
                 raise setup_error(
-                    name, drive.node_id, port.name, failed.what, failed.exc
+                    name, drive.node_id, bus_name, failed.what, failed.exc
                 ) from failed.exc
-            log.info("set up %s (node %d on bus %s)", name, drive.node_id, port.name)
+            log.info("set up %s (node %d on bus %s)", name, drive.node_id, bus_name)
     finally:
         net.close()

@@ -14,7 +14,8 @@ code     name               raised when
 0x403    FOLLOWING_ERROR    |actual − set-point| above the window for ``time_ms``, or a
                             drive's EMCY 0x8611
 0x404    EMCY               any other EMCY from a drive (code and name in the text)
-0x405    TPDO_TIMEOUT       no TPDO1 from an operational drive for ``tpdo_timeout_cycles``
+0x405    TPDO_TIMEOUT       no TPDO1 from a drive for ``tpdo_timeout_cycles`` cycles in a
+                            row and, where ``tpdo_timeout_ms`` is set, for that long
 0x406    BUS_ERROR          a frame could not be sent
 0x407    ENABLE_REFUSED     a drive did not reach Operation enabled in time
 =======  =================  ===========================================================
@@ -26,16 +27,43 @@ description names the node id, the bus and what happened.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from controller.model.alarms import AlarmCode
 from hal.can.cia402 import State
+from hal.can.drive_profile import DriveProfile
 from hal.can.pdo import emcy_name
 from hal.interface import HardwareFault
 
 EMCY_FOLLOWING_ERROR = 0x8611
 EMCY_HEARTBEAT = 0x8130
+
+
+def tpdo_timeouts(
+    profile: DriveProfile,
+    drive_bus: Sequence[str],
+    overrides: dict[str, dict[str, object]] | None = None,
+) -> tuple[list[int], list[float]]:
+    """TPDO timeout per drive (on bus ``drive_bus[i]``): cycles and [s] (0 = cycles only).
+    Per bus: ``overrides[bus]`` (``tpdo_timeout_cycles``, ``tpdo_timeout_ms``), else the bus's
+    own settings in the profile, else the profile's. ValueError on a bad value."""
+    cycles, seconds = [], []
+    for bus in drive_bus:
+        cfg = profile.buses[bus]
+        extra = (overrides or {}).get(bus, {})
+        n = extra.get("tpdo_timeout_cycles", cfg.tpdo_timeout_cycles)
+        ms = extra.get("tpdo_timeout_ms", cfg.tpdo_timeout_ms)
+        n = profile.tpdo_timeout_cycles if n is None else n
+        ms = profile.tpdo_timeout_ms if ms is None else ms
+        if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+            raise ValueError(f"bus {bus}: tpdo_timeout_cycles must be an integer >= 1, got {n!r}")
+        if ms is not None and (not isinstance(ms, int | float) or isinstance(ms, bool) or ms < 0):
+            raise ValueError(f"bus {bus}: tpdo_timeout_ms must be a number >= 0, got {ms!r}")
+        cycles.append(n)
+        seconds.append(float(ms or 0.0) / 1e3)
+    return cycles, seconds
 
 
 class DriveError(RuntimeError):
@@ -58,8 +86,11 @@ class Supervisor:
         windows: np.ndarray,
         following_time: float,
         heartbeat_timeout: float,
-        tpdo_timeout_cycles: int,
+        tpdo_timeout_cycles: int | Sequence[int],
+        tpdo_timeout: float | Sequence[float] = 0.0,
     ):
+        """``tpdo_timeout_cycles`` and ``tpdo_timeout`` [s] (0 = cycles only): one for all
+        drives or one per drive (e.g. a slower bus bridged over a network)."""
         self.names = names
         self.node_ids = node_ids
         self.buses = buses
@@ -67,9 +98,16 @@ class Supervisor:
         #: Cycles the following error may stay outside its window.
         self.following_cycles = max(1, math.ceil(following_time / dt - 1e-9))
         self.heartbeat_timeout = heartbeat_timeout
-        self.tpdo_timeout_cycles = tpdo_timeout_cycles
         n = len(names)
+        self.tpdo_timeout_cycles = np.broadcast_to(np.asarray(tpdo_timeout_cycles, int), n).copy()
+        self.tpdo_timeout = np.broadcast_to(np.asarray(tpdo_timeout, float), n).copy()
+        if (self.tpdo_timeout_cycles < 1).any() or (self.tpdo_timeout < 0).any():
+            raise ValueError("TPDO timeouts: at least 1 cycle and 0 s")
         self.missed = np.zeros(n, dtype=int)
+        #: Time of each drive's last TPDO1 [s] (the cycle's clock).
+        self.last_tpdo = np.zeros(n)
+        #: TPDO timeout already reported (once per episode, until a TPDO1 comes in).
+        self.tpdo_reported = np.zeros(n, dtype=bool)
         self.outside = np.zeros(n, dtype=int)
         self.last_heartbeat = np.zeros(n)
         #: Heartbeat loss already reported (once per episode).
@@ -82,6 +120,8 @@ class Supervisor:
         """Forget counters (after set-up, a fault reset, an enable)."""
         self.missed[:] = 0
         self.outside[:] = 0
+        self.last_tpdo[:] = now
+        self.tpdo_reported[:] = False
         self.last_heartbeat[:] = now
         self.reported[:] = False
 
@@ -124,27 +164,48 @@ class Supervisor:
             int(AlarmCode.HEARTBEAT_LOST), self.names[i], f"{self.where(i)}: heartbeat: {what}"
         )
 
-    def tpdo(self, fresh: np.ndarray) -> list[HardwareFault]:
-        """Count cycles without TPDO1 (``fresh``: got one this cycle); faults at the limit."""
-        self.missed += 1
-        self.missed[fresh] = 0
+    def tpdo(self, fresh: np.ndarray, now: float = 0.0) -> list[HardwareFault]:
+        """Count cycles without TPDO1 (``fresh``: got one this cycle, at ``now`` [s]); a fault
+        once a drive misses ``tpdo_timeout_cycles`` in a row and its last TPDO1 is at least
+        ``tpdo_timeout`` old, once per episode."""
+        missed = self.missed
+        if fresh.all():
+            missed[:] = 0
+            self.last_tpdo[:] = now
+            self.tpdo_reported[:] = False
+            return []
+        missed += 1
+        missed[fresh] = 0
+        self.last_tpdo[fresh] = now
+        self.tpdo_reported[fresh] = False
+        late = (missed >= self.tpdo_timeout_cycles) & ~self.tpdo_reported
+        if not late.any():
+            return []
+        late &= now - self.last_tpdo >= self.tpdo_timeout - 1e-9  # clock rounding
         faults = []
-        for i in np.flatnonzero(self.missed == self.tpdo_timeout_cycles):
+        for i in np.flatnonzero(late):
+            self.tpdo_reported[i] = True
+            time = self.tpdo_timeout[i]
             faults.append(
                 HardwareFault(
                     int(AlarmCode.TPDO_TIMEOUT),
                     self.names[i],
                     f"{self.where(int(i))}: no TPDO1 (statusword, position) for "
-                    f"{self.tpdo_timeout_cycles} cycles",
+                    f"{missed[i]} cycles"
+                    + (f" ({(now - self.last_tpdo[i]) * 1e3:.0f} ms)" if time > 0 else ""),
                 )
             )
         return faults
 
     def heartbeats(self, now: float) -> list[HardwareFault]:
         """Faults for drives whose last heartbeat is older than the consumer time."""
-        late = np.flatnonzero((now - self.last_heartbeat > self.heartbeat_timeout) & ~self.reported)
+        if now - self.last_heartbeat.min() <= self.heartbeat_timeout:
+            return []
+        late = (now - self.last_heartbeat > self.heartbeat_timeout) & ~self.reported
+        if not late.any():
+            return []
         faults = []
-        for i in late:
+        for i in np.flatnonzero(late):
             age = now - self.last_heartbeat[i]
             faults.append(
                 HardwareFault(
@@ -160,6 +221,9 @@ class Supervisor:
     def following(self, error: np.ndarray, active: np.ndarray) -> list[HardwareFault]:
         """Count cycles with |error| [SI] above the window on ``active`` drives."""
         over = (np.abs(error) > self.windows) & active
+        if not over.any():
+            self.outside[:] = 0
+            return []
         self.outside += 1
         self.outside[~over] = 0
         faults = []
@@ -172,6 +236,41 @@ class Supervisor:
                     f"window {float(self.windows[i]):.4g} for {self.following_cycles} cycles",
                 )
             )
+        return faults
+
+    def check(
+        self,
+        now: float,
+        fresh: np.ndarray,
+        states: Sequence[State],
+        statuswords: Sequence[int],
+        active: bool,
+        all_enabled: bool,
+        any_faulted: bool,
+        error: np.ndarray,
+    ) -> list[HardwareFault]:
+        """Every check of one cycle at ``now`` [s]: TPDO timeouts (``fresh``), heartbeats,
+        drive states (``any_faulted``; with ``active`` every drive must be Operation
+        enabled), following ``error`` [SI] of the enabled drives when ``active``."""
+        faults = self.tpdo(fresh, now)
+        faults += self.heartbeats(now)
+        if any_faulted or (active and not all_enabled):
+            for i, state in enumerate(states):
+                fault = self.state(i, state, statuswords[i])
+                if fault is not None:
+                    faults.append(fault)
+                elif active and state is not State.OPERATION_ENABLED:
+                    faults.append(
+                        HardwareFault(
+                            int(AlarmCode.DRIVE_FAULT),
+                            self.names[i],
+                            f"{self.where(i)}: left operation enabled (state: {state.value})",
+                        )
+                    )
+        if active:
+            if not all_enabled:
+                fresh = fresh & np.array([s is State.OPERATION_ENABLED for s in states])
+            faults += self.following(error, fresh)
         return faults
 
     @staticmethod

@@ -1,0 +1,144 @@
+"""Joints <-> drives of the CAN master: set-points to counts, feedback counts to SI joint state.
+
+A robot's joints (unit joints in unit order, then grippers) map to drives of the profile by
+name. The vehicle's virtual joints x, y [m] and θ [rad] map to the wheel drives through
+:class:`hal.can.vehicle.VehicleMapping` (commands as wheel increments, feedback as
+odometry) unless the profile lists them as drives. Scaling counts <-> SI is
+:mod:`hal.can.scaling`; wheels turn without bound (their 32-bit positions are integrated as
+wrapped differences).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from controller.model.robot import Robot
+from hal.can.drive_profile import VEHICLE_JOINTS, DriveProfile
+from hal.can.scaling import I32_MIN, ScalingArray, delta_i32
+from hal.can.vehicle import VehicleMapping
+
+
+def joint_names(robot: Robot) -> tuple[str, ...]:
+    """The joints a CAN backend exposes: unit joints in unit order, then grippers."""
+    units = [n for joints in robot.profile.units.values() for n in joints]
+    return (*units, *robot.gripper_joints)
+
+
+class JointMap:
+    """Joints of ``robot`` on the drives of ``profile`` at loop period ``dt`` [s]."""
+
+    def __init__(self, robot: Robot, profile: DriveProfile, dt: float):
+        self.dt = dt
+        self.joint_names = joint_names(robot)
+        #: Drives in profile order.
+        self.drive_names = list(profile.drives)
+        cfgs = [profile.drives[n] for n in self.drive_names]
+        self.scale = ScalingArray([d.scaling() for d in cfgs])
+        n = len(cfgs)
+        self.has_velocity = np.array([d.velocity_feedback for d in cfgs], dtype=bool)
+        #: Drives with TPDO2 (velocity actual) and their counts per SI unit.
+        self._vel_idx = [int(i) for i in np.flatnonzero(self.has_velocity)]
+        self._vel_factor = self.scale.factor[self._vel_idx]
+        wheels = profile.wheels
+        self.wheel_idx = [self.drive_names.index(w) for w in wheels]
+        self.vehicle: VehicleMapping | None = None
+        self._vehicle_joints = np.zeros(0, dtype=int)
+        if wheels:
+            assert robot.profile.vehicle is not None
+            self.vehicle = VehicleMapping(robot.profile.vehicle.wheels)
+            self._vehicle_joints = np.array(
+                [self.joint_names.index(j) for j in VEHICLE_JOINTS], dtype=int
+            )
+        # Joint joint_idx[k] <- drive joint_drive[k] for every joint that is a drive.
+        joint_of = {name: i for i, name in enumerate(self.joint_names)}
+        pairs = [(joint_of[d], k) for k, d in enumerate(self.drive_names) if d in joint_of]
+        self.joint_idx = np.array([p[0] for p in pairs], dtype=int)
+        self.joint_drive = np.array([p[1] for p in pairs], dtype=int)
+        missing = set(self.joint_names) - {self.joint_names[i] for i in self.joint_idx}
+        if self.vehicle is not None:
+            missing -= set(VEHICLE_JOINTS)
+        if missing:
+            raise ValueError(f"{robot.id}: joints without a drive: {sorted(missing)}")
+        #: Per drive [rad]/[m] (wheels as unbounded angles): measured, previous, velocity.
+        self.pos = np.zeros(n)
+        self.vel = np.zeros(n)
+        self._prev = np.zeros(n)
+        self._si = np.zeros(n)
+        self._counts = np.zeros(n)
+        #: Set-point [SI] per drive sent before the last SYNC.
+        self.target = np.zeros(n)
+        self._wheel_raw = [0] * len(wheels)
+        self._wheel_seen = [False] * len(wheels)
+        self._vehicle_started = False
+        #: Every wheel reports its velocity (TPDO2): odometry twist from speeds.
+        self._wheel_speeds = bool(wheels) and bool(self.has_velocity[self.wheel_idx].all())
+        #: Joint state [rad]/[m] and [rad/s]/[m/s] in :attr:`joint_names` order.
+        self.position = np.zeros(len(self.joint_names))
+        self.velocity = np.zeros(len(self.joint_names))
+
+    def command(self, position: np.ndarray, out: list[int]) -> None:
+        """Joint set-points [SI] -> :attr:`target` [SI] and ``out`` [counts] per drive."""
+        target = self.target
+        target[self.joint_drive] = position[self.joint_idx]
+        if self.vehicle is not None:
+            target[self.wheel_idx] = self.vehicle.command(position[self._vehicle_joints])
+        counts = np.rint(target * self.scale.factor + self.scale.offset).astype(np.int64)
+        counts -= I32_MIN
+        counts %= 2**32
+        counts += I32_MIN
+        out[:] = counts.tolist()
+
+    def hold(self) -> None:
+        """Set-point := measured (the targets in counts are the caller's: the raw actuals)."""
+        self.target[:] = self.pos
+        if self.vehicle is not None:
+            self.vehicle.hold()
+
+    def update(
+        self,
+        raw: Sequence[int],
+        raw_velocity: Sequence[int],
+        fresh: np.ndarray,
+        seen: np.ndarray,
+    ) -> None:
+        """New SI state from the feedback [counts], [counts/s] of the drives (``seen``: ever
+        sent a TPDO1, ``fresh``: sent one this cycle)."""
+        pos, prev = self.pos, self._prev
+        prev[:] = pos
+        counts = self._counts
+        counts[:] = raw
+        si = self.scale.to_si(counts, out=self._si)
+        for k, i in enumerate(self.wheel_idx):
+            # Wheels turn without bound: integrate wrapped count differences.
+            if self._wheel_seen[k]:
+                step = delta_i32(int(raw[i]), self._wheel_raw[k])
+                si[i] = prev[i] + step / self.scale.factor[i]
+            if seen[i]:
+                self._wheel_raw[k] = int(raw[i])
+                self._wheel_seen[k] = True
+        if seen.all():
+            pos[:] = si
+        else:
+            np.copyto(pos, si, where=seen)
+        if fresh.all():
+            np.subtract(pos, prev, out=self.vel)
+            self.vel /= self.dt
+        else:
+            np.copyto(self.vel, (pos - prev) / self.dt, where=fresh)
+        if self._vel_idx:
+            self.vel[self._vel_idx] = [raw_velocity[i] for i in self._vel_idx] / self._vel_factor
+        self.position[self.joint_idx] = pos[self.joint_drive]
+        self.velocity[self.joint_idx] = self.vel[self.joint_drive]
+        vehicle = self.vehicle
+        if vehicle is not None and all(self._wheel_seen):
+            wheels = pos[self.wheel_idx]
+            speeds = self.vel[self.wheel_idx] if self._wheel_speeds else None
+            if self._vehicle_started:
+                vehicle.measure(wheels, speeds, self.dt)
+            else:
+                vehicle.start(wheels)
+                self._vehicle_started = True
+            self.position[self._vehicle_joints] = vehicle.pose
+            self.velocity[self._vehicle_joints] = vehicle.velocity

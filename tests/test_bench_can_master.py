@@ -1,0 +1,21 @@
+"""tools/bench_can_master.py: the measurement runs and reports every figure (no timing asserts)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+
+from bench_can_master import PHASES, measure_master
+
+
+def test_measure_master_reports_cycle_and_phases():
+    result = measure_master("smartpal5", 500.0, cycles=50, warmup=5)
+    assert (result["drives"], result["buses"]) == (21, 5)
+    cycle = result["cycle"]
+    assert isinstance(cycle, dict) and set(cycle) == {"p50_us", "p99_us", "max_us", "mean_us"}
+    phases = result["phases_p50_us"]
+    assert isinstance(phases, dict) and set(phases) == set(PHASES)
+    # 21 RPDO1 + 5 SYNC + 21 TPDO1 + 8 TPDO2 per cycle, plus heartbeats.
+    assert isinstance(result["frames_per_cycle"], float) and result["frames_per_cycle"] >= 55

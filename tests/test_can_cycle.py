@@ -1,0 +1,149 @@
+"""hal.can.cycle: encode/send/receive/decode of one cycle against stub drives (no emulator)."""
+
+from __future__ import annotations
+
+import can
+import numpy as np
+import pytest
+
+from controller.model.alarms import AlarmCode
+from hal.can import pdo
+from hal.can.cia402 import Goal, State
+from hal.can.cycle import FRAME_BITS, CycleIO
+from hal.can.ports import Port, poller
+from hal.can.stub_bus import StubDrivesBus
+from hal.can.supervision import Supervisor
+from hal.interface import HardwareFault
+
+NODES = [3, 4, 5]
+
+
+class Rig:
+    """Three stub drives on one bus (node 4 without TPDO2), a CycleIO over them."""
+
+    def __init__(self) -> None:
+        self.bus = StubDrivesBus("b", NODES, [True, False, True], positions=[10, -20, 30])
+        self.port = Port(
+            "b", self.bus, [0, 1, 2],
+            {c: (k, i) for c, (k, i) in pdo.receive_table(NODES).items()},
+            can.Message(arbitration_id=pdo.SYNC, data=b"", is_extended_id=False),
+            can.Message(arbitration_id=0x77F, data=b"\x05", is_extended_id=False),
+        )  # fmt: skip
+        self.now = 5.0
+        self.faults: list[HardwareFault] = []
+        self.sup = Supervisor(
+            ["a", "b", "c"], NODES, ["b"] * 3, 0.002, np.full(3, 0.1), 0.006, 0.3, 3
+        )
+        self.io = CycleIO([self.port], NODES, self.sup, self.faults.extend, lambda: self.now, 0.1)
+
+    def cycle(self) -> None:
+        self.io.send()
+        self.io.clear_fresh()
+        self.io.receive()
+        self.io.decode_states()
+
+
+@pytest.fixture
+def rig():
+    r = Rig()
+    yield r
+    r.bus.shutdown()
+
+
+def test_no_rpdo_before_the_first_tpdo1_then_every_drive(rig: Rig):
+    rig.io.send()
+    assert rig.bus.sent == 1 and rig.port.syncs_sent == 1  # the SYNC only
+    rig.io.clear_fresh()
+    rig.io.receive()
+    assert rig.io.fresh.all() and rig.io.seen.all()
+    assert rig.io.position == [10, -20, 30]
+    rig.io.send()
+    assert rig.bus.sent == 1 + 3 + 1
+    assert rig.port.frames_sent == 5
+    sent_bits = 2 * FRAME_BITS[0] + 3 * FRAME_BITS[6]  # 2 SYNC, 3 RPDO1
+    received_bits = 3 * FRAME_BITS[6] + 2 * FRAME_BITS[4]  # 3 TPDO1, 2 TPDO2
+    assert rig.port.bits == sent_bits + received_bits and rig.port.frames_received == 5
+
+
+def test_states_follow_the_goal_and_targets_are_packed(rig: Rig):
+    rig.cycle()
+    assert rig.io.states == [State.SWITCH_ON_DISABLED] * 3 and not rig.io.all_enabled
+    rig.io.set_goal(Goal.ENABLED)
+    for _ in range(4):
+        rig.cycle()
+    assert rig.io.all_enabled and not rig.io.any_faulted
+    rig.io.hold_targets()
+    assert rig.io.target == [10, -20, 30]
+    sent: list[can.Message] = []
+    send = rig.bus.send
+
+    def spy(msg: can.Message, timeout: float | None = None) -> None:
+        sent.append(can.Message(arbitration_id=msg.arbitration_id, data=bytes(msg.data)))
+        send(msg, timeout)
+
+    rig.bus.send = spy  # type: ignore[method-assign]
+    rig.io.target[1] = -(2**31)
+    rig.io.send()
+    rpdo = {m.arbitration_id: pdo.RPDO1_STRUCT.unpack(m.data) for m in sent[:-1]}
+    assert rpdo == {0x203: (0x0F, 10), 0x204: (0x0F, -(2**31)), 0x205: (0x0F, 30)}
+    assert sent[-1].arbitration_id == pdo.SYNC
+
+
+def test_tpdo2_heartbeat_and_emcy_are_decoded(rig: Rig):
+    rig.cycle()
+    rig.bus._queue.append(can.Message(arbitration_id=0x285, data=pdo.TPDO2_STRUCT.pack(-77)))
+    rig.bus._queue.append(can.Message(arbitration_id=0x704, data=b"\x05"))
+    rig.now = 6.0
+    rig.io.receive()
+    assert rig.io.velocity[2] == -77 and rig.sup.last_heartbeat[1] == 6.0
+    assert not rig.faults
+    rig.bus._queue.append(can.Message(arbitration_id=0x704, data=b"\x00"))  # rebooted
+    rig.bus._queue.append(can.Message(arbitration_id=0x083, data=b"\x10\x23\x02\0\0\0\0\0"))
+    rig.io.receive()
+    assert [(f.code, f.source) for f in rig.faults] == [
+        (AlarmCode.HEARTBEAT_LOST, "b"), (AlarmCode.EMCY, "a"),
+    ]  # fmt: skip
+
+
+def test_a_failed_send_is_a_bus_error_and_the_port_stops(rig: Rig):
+    def broken(msg: can.Message, timeout: float | None = None) -> None:
+        raise can.CanOperationError("tx queue full")
+
+    rig.bus.send = broken  # type: ignore[method-assign]
+    rig.io.send()
+    assert rig.port.failed
+    assert [(f.code, f.source) for f in rig.faults] == [(AlarmCode.BUS_ERROR, "b")]
+    assert "send of 0x080 failed: tx queue full" in rig.faults[0].description
+    rig.io.send()
+    rig.io.send_heartbeat(10.0, force=True)
+    assert len(rig.faults) == 1 and rig.port.syncs_sent == 0
+
+
+def test_a_bus_off_error_frame_faults(rig: Rig):
+    rig.bus._queue.append(can.Message(arbitration_id=0x40, is_error_frame=True, data=bytes(8)))
+    rig.io.receive()
+    assert [(f.code, f.source) for f in rig.faults] == [(AlarmCode.BUS_OFF, "b")]
+
+
+def test_receive_waits_for_missing_tpdos_until_the_deadline(rig: Rig):
+    rig.now = 0.0
+    rig.io.clear_fresh()
+    rig.io.receive(deadline=0.0)  # deadline passed: no wait
+    assert not rig.io.fresh.any()
+    rig.io.send()
+    rig.io.clear_fresh()
+    rig.io.receive(deadline=1.0)
+    assert rig.io.fresh.all()
+
+
+def test_heartbeat_only_when_due(rig: Rig):
+    rig.io.send_heartbeat(1.0)
+    rig.io.send_heartbeat(1.05)
+    rig.io.send_heartbeat(1.1)
+    assert rig.port.frames_sent == 2
+    rig.io.send_heartbeat(1.11, force=True)
+    assert rig.port.frames_sent == 3
+
+
+def test_poller_is_the_fast_path_on_a_plain_bus(rig: Rig):
+    assert poller(rig.bus) == rig.bus._recv_internal

@@ -1,0 +1,216 @@
+#!/usr/bin/env python3
+"""Per-cycle cost of the CAN master alone: no emulator, drives answering precomputed frames.
+
+The backend (:class:`hal.can.backend.CanBackend`, exactly as ``--hal can`` builds it) runs on
+stub buses (:class:`hal.can.stub_bus.StubDrivesBus`, one per profile bus) that answer each
+SYNC with every drive's TPDO1 (+TPDO2) built once, so what is measured is the master's own
+work: encode (joint set-points -> counts, RPDO1 packing), send, receive, decode (TPDOs ->
+SI joint state, vehicle odometry), supervision (TPDO/heartbeat timeouts, drive states,
+following error). The stub's own cost (a python-can bus that appends to and pops from a
+deque) is inside send and receive; real interfaces cost more there (a system call per
+frame on SocketCAN).
+
+The command is a slow sine on every joint (counts change every cycle). Reported [µs]: the
+whole cycle (``read()`` + ``write()``, as the control loop calls them) p50/p99/max/mean, and
+the median (and mean) of each phase from a second, instrumented pass. Usage::
+
+    python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000]
+
+Prints figures and a final JSON line. :func:`measure_master` is the measurement as a
+function (e.g. for tools/bench_hil.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from controller.model.robot import load_robot  # noqa: E402
+from hal.can.backend import CanBackend  # noqa: E402
+from hal.can.drive_profile import drives_path, load_drive_profile  # noqa: E402
+from hal.can.stub_bus import StubDrivesBus  # noqa: E402
+from hal.interface import HardwareState, JointCommand  # noqa: E402
+
+#: Amplitude [rad] or [m] of the commanded sine (within the following window of every drive).
+AMPLITUDE = 0.002
+PHASES = ("encode", "send", "receive", "decode", "supervision")
+
+
+def _stats(ns: list[int]) -> dict[str, float]:
+    us = np.array(ns, dtype=float) / 1e3
+    return {
+        "p50_us": round(float(np.percentile(us, 50)), 1),
+        "p99_us": round(float(np.percentile(us, 99)), 1),
+        "max_us": round(float(us.max()), 1),
+        "mean_us": round(float(us.mean()), 1),
+    }
+
+
+class CycleClock:
+    """The backend's clock [s]: moves one period per cycle (:meth:`step`), so heartbeat and
+    TPDO supervision see the loop's time however the host stalls the benchmark."""
+
+    def __init__(self, dt: float):
+        self.dt = dt
+        self.t = 1000.0
+
+    def __call__(self) -> float:
+        return self.t
+
+    def step(self) -> None:
+        self.t += self.dt
+
+
+def stub_backend(robot_id: str = "smartpal5", rate: float = 500.0) -> CanBackend:
+    """A configured, active CanBackend of ``robot_id`` on stub buses (module doc); its clock
+    is a :class:`CycleClock` (``backend._clock``)."""
+    robot = load_robot(robot_id)
+    profile = load_drive_profile(drives_path(robot), robot)
+    dt = 1.0 / rate
+    every = max(1, round(profile.heartbeat.drive_producer_ms / 1e3 / dt))
+    buses = {}
+    for name in profile.buses:
+        drives = list(profile.drives_on(name).values())
+        buses[name] = StubDrivesBus(
+            name,
+            [d.node_id for d in drives],
+            [d.velocity_feedback for d in drives],
+            heartbeat_every=every,
+        )
+    clock = CycleClock(dt)
+
+    def sleep(_seconds: float) -> None:
+        clock.step()
+
+    backend = CanBackend(
+        robot, dt, profile, bus_factory=lambda name, _kw: buses[name], clock=clock, sleep=sleep
+    )
+    backend.configure()
+    backend.read()
+    backend.activate()
+    return backend
+
+
+def _phases(backend: CanBackend, command: np.ndarray, ns: dict[str, list[int]]) -> None:
+    """One cycle as read() + write() do it, each phase timed (the backend's own steps)."""
+    clock = time.perf_counter_ns
+    io, joints = backend.io, backend.joints
+    t0 = clock()
+    io.clear_fresh()
+    now = backend._clock()
+    io.receive()
+    t1 = clock()
+    io.decode_states()
+    joints.update(io.position, io.velocity, io.fresh, io.seen)
+    backend._pending = False
+    t2 = clock()
+    backend._check(now)
+    t3 = clock()
+    joints.command(command, io.target)
+    backend._checked[:] = joints.target
+    t4 = clock()
+    io.send()
+    io.send_heartbeat(backend._clock())
+    backend._pending = True
+    t5 = clock()
+    for name, a, b in (
+        ("receive", t0, t1), ("decode", t1, t2), ("supervision", t2, t3),
+        ("encode", t3, t4), ("send", t4, t5),
+    ):  # fmt: skip
+        ns[name].append(b - a)
+
+
+def measure_master(
+    robot_id: str = "smartpal5", rate: float = 500.0, cycles: int = 20000, warmup: int = 500
+) -> dict[str, object]:
+    """The CAN master's per-cycle cost [µs] for ``robot_id`` at ``rate`` [Hz], measured alone
+    on stub buses (module doc): ``cycle`` (read + write) statistics, per-phase p50 and mean, drive
+    and bus counts, load average. Runs ``warmup`` + ``cycles`` cycles twice, back to back
+    (no sleeping: the cost, not the rate; the backend's clock moves one period per cycle)."""
+    backend = stub_backend(robot_id, rate)
+    step = backend._clock.step  # type: ignore[attr-defined]
+    try:
+        base = backend.read().position.copy()
+        phase = np.linspace(0.0, 2.0 * np.pi, len(base), endpoint=False)
+        dt = backend.dt
+        total: list[int] = []
+        clock = time.perf_counter_ns
+        for k in range(warmup + cycles):
+            command = JointCommand(base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase))
+            t0 = clock()
+            backend.read()
+            backend.write(command)
+            t1 = clock()
+            step()
+            if k >= warmup:
+                total.append(t1 - t0)
+        ns: dict[str, list[int]] = {name: [] for name in PHASES}
+        for k in range(warmup + cycles):
+            command_array = base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase)
+            with backend._lock:
+                _phases(backend, command_array, ns)
+            step()
+            if k < warmup:
+                for values in ns.values():
+                    values.clear()
+        if backend.state is not HardwareState.ACTIVE or backend.faults():
+            raise RuntimeError(f"the master left ACTIVE: {backend.faults()}")
+        return {
+            "robot": robot_id,
+            "rate_hz": rate,
+            "drives": len(backend.drive_names),
+            "buses": len(backend.profile.buses),
+            "cycles": cycles,
+            "cycle": _stats(total),
+            "phases_p50_us": {
+                name: round(float(np.percentile(v, 50)) / 1e3, 1) for name, v in ns.items()
+            },
+            "phases_mean_us": {name: round(float(np.mean(v)) / 1e3, 1) for name, v in ns.items()},
+            "frames_per_cycle": round(
+                (sum(backend.frames_sent.values()) + sum(backend.frames_received.values()))
+                / max(1, sum(backend.syncs_sent.values()) / len(backend.profile.buses)),
+                1,
+            ),
+            "loadavg": [round(x, 2) for x in os.getloadavg()],
+        }
+    finally:
+        backend.shutdown()
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="smartpal5")
+    parser.add_argument("--rate", type=float, default=500.0, help="[Hz] loop rate (the period)")
+    parser.add_argument("--cycles", type=int, default=20000)
+    args = parser.parse_args()
+    result = measure_master(args.robot, args.rate, args.cycles)
+    cycle = result["cycle"]
+    phases = result["phases_p50_us"]
+    assert isinstance(cycle, dict) and isinstance(phases, dict)
+    print(
+        f"CAN master alone: {args.robot}, {result['drives']} drives on {result['buses']} buses, "
+        f"{args.rate:g} Hz period, {args.cycles} cycles, stub buses "
+        f"({result['frames_per_cycle']} frames per cycle)"
+    )
+    print(
+        f"cycle (read + write) [µs]: p50 {cycle['p50_us']:.1f}  p99 {cycle['p99_us']:.1f}  "
+        f"max {cycle['max_us']:.1f}  mean {cycle['mean_us']:.1f}"
+    )
+    print("phases, p50 [µs]: " + "  ".join(f"{k} {v:.1f}" for k, v in phases.items()))
+    print(f"load average {result['loadavg']} (2 cores, shared)")
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
