@@ -31,6 +31,7 @@ from controller.client.convert import resolve_enum
 from controller.client.errors import ArgumentError, ClientError, RpcFailed
 from controller.client.types import RightLeft
 from controller.rpc import imotion_pb2, imotion_pb2_grpc
+from controller.version import add_version_argument
 
 PROG = "imotion"
 
@@ -138,6 +139,7 @@ def top_parser() -> Parser:
         allow_abbrev=False,
     )
     add_global_options(parser, suppress=False)
+    add_version_argument(parser)
     parser.add_argument("command", nargs="?", help="an operation, arm, dual, watch or list")
     parser.add_argument("args", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
     return parser

@@ -40,6 +40,7 @@ from controller.daemon import systemd
 from controller.logs import setup_logging
 from controller.model.robot import load_robot
 from controller.model.yaml_source import ConfigError
+from controller.version import add_version_argument
 from hal.factory import make_hardware
 
 _log = logging.getLogger("imotiond")
@@ -284,6 +285,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="override any setting, e.g. --set queue_depth=16 (repeatable)",
     )
     p.add_argument("--check", action="store_true", help="validate the configuration and exit")
+    add_version_argument(p)
     return p.parse_args(argv)
 
 

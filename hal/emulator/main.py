@@ -37,6 +37,7 @@ from typing import Any, TextIO
 
 from controller.model.robot import load_robot
 from controller.model.yaml_source import ConfigError
+from controller.version import add_version_argument
 from hal.can.drive_profile import drives_path, load_drive_profile
 from hal.emulator.bridge import BusBridge
 from hal.emulator.emulator import DriveEmulator
@@ -75,6 +76,7 @@ def _parser() -> argparse.ArgumentParser:
         help="python-can channel of a bus (repeat per bus)",
     )  # fmt: skip
     parser.add_argument("--log-level", default="info", help="debug, info, warning, error")
+    add_version_argument(parser)
     return parser
 
 
