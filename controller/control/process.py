@@ -31,6 +31,7 @@ from controller.contract.motion_specs import MotionSpec
 from controller.control.blackbox import BlackBoxRing
 from controller.control.commands import URGENT, Commands
 from controller.control.core import MotionCore
+from controller.control.events import LoopEvents
 from controller.control.loop import FixedRateLoop
 from controller.control.motion_queue import MotionQueue
 from controller.control.publisher import SnapshotPublisher
@@ -87,6 +88,8 @@ class Controller(Commands):
         self.started = 0
         self.finished = 0
         self._running_motion: object = None
+        #: Operator log of state changes, motions and alarms (queued, never written here).
+        self.events = LoopEvents()
         #: Set by a signal handler: decelerate, servo off, leave the loop.
         self.shutdown_requested = threading.Event()
         self._shutdown_deadline: float | None = None
@@ -161,6 +164,7 @@ class Controller(Commands):
             if self._running_motion is not None:
                 self.finished += 1
             self._running_motion = core.motion
+        self.events.observe(core)
         if core.state in (CoreState.SERVO_OFF, CoreState.ALARM):
             self.queue.clear()
         elif core.state == CoreState.READY and core.motion is None and self.queue:
@@ -179,7 +183,7 @@ class Controller(Commands):
         self.core.start(spec.build(self.core.kin, self.dt))
         self._running_motion = self.core.motion
         self.started += 1
-        _log.info("motion started: %s", spec.label)
+        self.events.motion_started(spec.label, self.core.motion)
 
     def _shutdown_step(self) -> bool:
         """True when the loop should end (shutdown requested and the robot is safe)."""
@@ -189,6 +193,7 @@ class Controller(Commands):
         if self._shutdown_deadline is None:
             self._shutdown_deadline = now + self.stop_timeout
             self.queue.clear()
+            self.events.ending("stopped")
             self.core.stop()
             _log.info("shutdown: decelerating to a stop")
         if self.core.is_moving and now < self._shutdown_deadline:

@@ -36,8 +36,9 @@ from controller.control.cycle_log import CycleLog
 from controller.control.process import Controller
 from controller.control.realtime import apply_realtime, restore
 from controller.daemon import systemd
+from controller.daemon.health import LoopHealth
 from controller.daemon.preflight import preflight
-from controller.logs import setup_logging
+from controller.logs import flush_logs, setup_logging
 from controller.model.robot import Robot, load_robot
 from controller.model.yaml_source import ConfigError
 from controller.version import add_version_argument
@@ -217,15 +218,22 @@ def _readline(stream: Any, timeout: float) -> str:
 
 
 def _supervise(daemon: Daemon) -> None:
-    """Watchdog pings while the loop advances; STATUS= on state changes; gateway health."""
+    """Watchdog pings while the loop advances; STATUS= on state changes; gateway health;
+    the loop-health log line."""
     period = systemd.watchdog_period()
     interval = min(0.5, period / 3) if period else 0.5
+    interval = min(interval, daemon.cfg.loop.health_log_s)
     last_cycle = -1
     last_status = ""
     restarts: list[float] = []
     ctl = daemon.controller
+    health = LoopHealth(ctl, daemon.cfg.loop.health_log_s)
     while not ctl.shutdown_requested.is_set():
         time.sleep(interval)
+        try:
+            health.tick(time.monotonic())
+        except Exception:  # the watchdog must not stop over a log line
+            _log.exception("loop health line failed")
         cycles = ctl.core.cycles
         if cycles != last_cycle:
             systemd.notify("WATCHDOG=1")
@@ -363,6 +371,7 @@ def main(argv: list[str] | None = None) -> int:
         systemd.notify("STOPPING=1")
         daemon.close()
     _log.info("stopped")
+    flush_logs()
     return daemon.exit_code
 
 
