@@ -10,6 +10,7 @@ import io
 import itertools
 import json
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -23,7 +24,7 @@ from google.protobuf.descriptor import FieldDescriptor
 from rich.console import Console
 
 from controller.cli import arguments, wait
-from controller.cli.main import main
+from controller.cli.main import main, operation_parser
 from controller.client import Client, codes, pose, rpy_of
 from controller.rpc import imotion_pb2
 from tests import client_fake
@@ -268,6 +269,17 @@ def test_lists_structs_and_separators(
         (["dual", "servoOn"], "imotion dual: unknown operation 'servoOn'"),
         (["arm", "LEFT", "setSoftLimitJoint", "1", "2", "3"], "expected groups of 2"),
         (["getState", "--bogus"], "unrecognized arguments: --bogus"),
+        (["getState", "--jsn"], "did you mean --json?"),
+        (["--adress", "x", "getState"], "did you mean --address?"),
+        (["moveCPHoldRel", "RIGHT", "--elbo", "3"], "did you mean --elbow?"),
+        (["servoOnn"], "unknown operation 'servoOnn'; did you mean servoOn?"),
+        (["wach"], "did you mean watch?"),
+        (["arm", "LEFT", "servoOnn"], "did you mean servoON?"),
+        (["moveCPHoldRel", "R", "--elbow", "1", "--relPos", *"1234567"],
+         "relPos: give --relPos or its parts, not both"),
+        (["moveCPHoldRel", "R", "--elbow", "x"], "relPos.elbow: 'x' is not a number"),
+        (["moveCPHoldAbs", "R", "--elbow", "30", "--elbow-speed", "1"],
+         "absPos is an absolute target: give every part, missing --lumbarRx-absPos"),
         (["watch", "--rate", "-1"], "--rate must be a finite number >= 0"),
         ([], "usage: imotion"),
     ],
@@ -282,6 +294,86 @@ def test_usage_errors_exit_2_with_one_line(
     if argv:
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not fake.calls  # nothing sent for a bad command line
+
+
+def test_struct_parts_by_name(
+    capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon
+) -> None:
+    """moveCPHoldRel --elbow -30 --elbow-speed 20 instead of 20 positional numbers; the parts
+    left out are 0; a struct not named at all still comes positionally."""
+    code, _, err = run(
+        capsys, "moveCPHoldRel", "--side", "RIGHT", "--elbow", "-30", "--elbow-speed", "20",
+        "--elbow-accel", "40", "--vehicleX", "5",
+    )  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert r.rel_pos == imotion_pb2.RedundantPos(elbow=-30, vehicle_x=5)
+    assert r.speed == imotion_pb2.RedundantSpeed(elbow=20)
+    assert r.accel == imotion_pb2.RedundantAccel(elbow=40)
+    code, _, err = run(capsys, "moveCPHoldRel", "RIGHT", *"0000000", "--vehicleTranslation-speed",
+                       "50", *"123456")  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert r.speed == imotion_pb2.RedundantSpeed(vehicle_translation=50)
+    assert list(r.accel.ListFields()[i][1] for i in range(6)) == [1, 2, 3, 4, 5, 6]
+    code, _, err = run(
+        capsys, "moveLinearCartesianAbs", "RIGHT", "--xyz", "400", "0", "800",
+        "--translation", "50", "--rotation-speed", "30", "--translation-accel", "200",
+        "--rotation-accel", "100",
+    )  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert (r.speed.translation, r.speed.rotation) == (50, 30)
+    assert (r.accel.translation, r.accel.rotation) == (200, 100)
+
+
+def test_nested_struct_parts_by_name(
+    capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon
+) -> None:
+    code, _, err = run(
+        capsys, "selectRedundantAxes", "--elbow", "true", "--vehicleX-redundancy", "yes",
+        "--rightElbow-upper-limit", "90", "--rightElbow-lower", "-90",
+    )  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert r.redundancy == imotion_pb2.RedundantAxesMask(elbow=True, vehicle_x=True)
+    assert (r.limit.right_elbow.upper, r.limit.right_elbow.lower) == (90, -90)
+    assert r.limit.vehicle_x.upper == 0
+
+
+_UNIT = re.compile(r"(mm|deg|\bs\b|%|ms)")
+
+
+def _field_helps(op: arguments.CliOperation) -> dict[str, str]:
+    parser = operation_parser(op, f"imotion {op.name}")
+    return {a.dest: a.help or "" for a in parser._actions if a.dest.startswith(("f_", "l_"))}
+
+
+@pytest.mark.parametrize("group", list(arguments.GROUPS))
+def test_help_gives_units_for_every_number_and_no_developer_text(group: str) -> None:
+    for op in arguments.operations(group).values():
+        text = operation_parser(op, f"imotion {op.name}").format_help()
+        assert "``" not in text and ":mod:" not in text and ":func:" not in text, op.name
+        assert "how to give the arguments" in text
+        helps = _field_helps(op)
+        for f in op.fields:
+            numbers = f.type in (FieldDescriptor.TYPE_DOUBLE, FieldDescriptor.TYPE_FLOAT) or (
+                f.type == FieldDescriptor.TYPE_MESSAGE
+                and f.message_type.name not in ("RedundantAxesMask",)
+            )
+            if numbers:
+                assert _UNIT.search(helps[f"f_{f.name}"]), (op.name, f.name, helps[f"f_{f.name}"])
+            for leaf in arguments.leaves(f):
+                if leaf.path[-1].type == FieldDescriptor.TYPE_DOUBLE:
+                    assert _UNIT.search(helps[leaf.dest]), (op.name, leaf.dest, helps[leaf.dest])
+
+
+def test_operation_help_example(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["moveCPHoldRel", "--help"])
+    out = capsys.readouterr().out
+    assert "--elbow DEG, --elbow-relPos DEG" in out
+    assert "--elbow-speed DEG/S" in out and "--vehicleTranslation-accel MM/S^2" in out
 
 
 def test_operation_names_are_case_tolerant(
@@ -367,14 +459,19 @@ def test_token_and_address_options(
     assert fake.last("ServoOFFArm").metadata["authorization"] == "Bearer tok3"
 
 
-def _free_port() -> int:
+@pytest.fixture
+def refused_address() -> Iterator[str]:
+    """A 127.0.0.1 address where nothing listens: the port stays bound (never listening)
+    for the whole test, so no other process can take it meanwhile."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+        yield f"127.0.0.1:{s.getsockname()[1]}"
 
 
-def test_daemon_not_running(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    address = f"127.0.0.1:{_free_port()}"
+def test_daemon_not_running(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, refused_address: str
+) -> None:
+    address = refused_address
     code, out, err = run(capsys, "--address", address, "getState")
     assert code == 2 and not out
     assert err.startswith(f"imotion: imotion daemon at {address} unreachable")
@@ -385,8 +482,8 @@ def test_daemon_not_running(capsys: pytest.CaptureFixture[str], tmp_path: Path) 
     assert code == 2 and "cannot read the TLS root certificate" in err
 
 
-def test_console_script_module_prints_one_line() -> None:
-    env = {**os.environ, "PYTHONPATH": str(REPO), "IMOTION_ADDRESS": f"127.0.0.1:{_free_port()}"}
+def test_console_script_module_prints_one_line(refused_address: str) -> None:
+    env = {**os.environ, "PYTHONPATH": str(REPO), "IMOTION_ADDRESS": refused_address}
     proc = subprocess.run(
         [sys.executable, "-m", "controller.cli", "getVersion"],
         capture_output=True, text=True, env=env, timeout=60, check=False,
