@@ -14,6 +14,7 @@ import re
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -22,10 +23,12 @@ import numpy as np
 import pytest
 from google.protobuf.descriptor import FieldDescriptor
 from rich.console import Console
+from rich.text import Text
 
-from controller.cli import arguments, wait
+from controller.cli import arguments, wait, watch
 from controller.cli.main import main, operation_parser
 from controller.client import Client, codes, pose, rpy_of
+from controller.client.convert import from_message
 from controller.rpc import imotion_pb2
 from tests import client_fake
 
@@ -496,28 +499,85 @@ def test_console_script_module_prints_one_line(refused_address: str) -> None:
 # ---------------------------------------------------------------- watch
 
 
-def test_watch_once_renders(capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon):
-    sample = imotion_pb2.StateSample(
+def _watch_sample(**kw: Any) -> imotion_pb2.StateSample:
+    fields: dict[str, Any] = dict(
         sequence=3, stamp_s=12.5, status_id=0x013, status_message="moving",
-        joints=[imotion_pb2.UnitJointPositions(unit=imotion_pb2.RIGHT_ARM, position=[1, 2, 3]),
+        joints=[imotion_pb2.UnitJointPositions(
+                    unit=imotion_pb2.RIGHT_ARM, position=[1, 2, 119.5], commanded=[1.5, 2, 119.5],
+                    names=["r_j1", "r_j2", "r_j3"],
+                    limits=[imotion_pb2.LimitValue(upper=u, lower=-u) for u in (90, 90, 120)]),
                 imotion_pb2.UnitJointPositions(unit=imotion_pb2.VEHICLE, position=[100, 5, 90])],
         control_points=[imotion_pb2.ControlPointPose(
             arm=imotion_pb2.RIGHT, pose=imotion_pb2.CarPosWithElbow(
                 car_pos=imotion_pb2.HgMatrix(m=client_fake.CANNED_HG), elbow=30))],
-        alarms=[imotion_pb2.Alarm(code=0x411, type=imotion_pb2.WARNING, description="overrun",
+        alarms=[imotion_pb2.Alarm(code=0x411, type=imotion_pb2.WARNING, description="overrun [x]",
                                   module_name="loop")],
         loop=imotion_pb2.LoopStats(cycles=1000, overruns=2,
                                    compute=imotion_pb2.LatencyStats(p50_us=80, p99_us=150,
                                                                     max_us=300)),
+        wall_time_s=1_800_000_000.25,
+        motion=imotion_pb2.MotionStatus(active=True, queued=2, queue_depth=8, started=5,
+                                        finished=4),
     )  # fmt: skip
-    fake.samples.append(sample)
+    fields.update(kw)
+    return imotion_pb2.StateSample(**fields)
+
+
+def test_watch_once_renders(
+    capsys: pytest.CaptureFixture[str],
+    fake: client_fake.FakeDaemon,
+    monkeypatch: pytest.MonkeyPatch,
+):
+    monkeypatch.setenv("COLUMNS", "200")  # a wide terminal: no cell folded
+    fake.samples.append(_watch_sample())
     code, out, err = run(capsys, "watch", "--once", "--rate", "5")
     assert code == 0, err
     assert fake.last("StreamState").request.rate_hz == 5.0
-    expected = ["0x013 Busy", "RIGHT_ARM", "J3 3", "VEHICLE", "x mm 100", "θ deg 90", "0x0411",
-                "overrun", "1000 cycles, 2 overruns", "p99 150", "30.0", "90.0"]  # fmt: skip
+    clock = time.strftime("%H:%M:%S", time.localtime(1_800_000_000)) + ".250"
+    expected = ["0x013 Busy", clock, "motion #5 running", "queue 2/8", "finished 4",
+                "RIGHT_ARM", "r_j1 [deg]", "1.5", "0.5", "-90 .. 90", "r_j3 [deg]",
+                "VEHICLE", "x [mm]", "theta [deg]", "0x0411", "overrun [x]", "active",
+                "1000 cycles, 2 overruns", "p99 150", "30.0", "90.0"]  # fmt: skip
     for text in expected:
         assert text in out, text
+
+
+def test_watch_marks_joints_near_their_limits() -> None:
+    sample = from_message(_watch_sample())
+    rows = watch.joint_rows(sample.joints[0])
+    assert [Text.from_markup(cells[0]).plain for cells, _ in rows] == [
+        "r_j1 [deg]",
+        "r_j2 [deg]",
+        "r_j3 [deg]",
+    ]
+    assert [cells[5] for cells, _ in rows] == ["89", "88", "0.5"]  # distance to the limit
+    assert [style for _, style in rows] == ["", "", "bold red"]  # 0.5 of 240: within 2 %
+    near = from_message(_watch_sample()).joints[0]._replace(position=[75.0, 0, 0])
+    assert watch.joint_rows(near)[0][1] == "yellow"  # 15 of 180: within 10 %
+    old = watch.joint_rows(sample.joints[1])  # no names, commands or limits (older daemon)
+    assert [Text.from_markup(c[0]).plain for c, _ in old] == ["x [mm]", "y [mm]", "theta [deg]"]
+    assert old[0][0][2:] == ["-", "-", "-", "-"]
+
+
+def test_watch_keeps_alarm_history_and_highlights_overruns() -> None:
+    history = watch.WatchHistory()
+    first = from_message(_watch_sample())
+    history.update(first, now=100.0)
+    assert not history.overrunning(100.0)  # the first count is the baseline
+    cleared = first._replace(alarms=[], wallTimeS=1_800_000_010.0,
+                             loop=first.loop._replace(overruns=5))  # fmt: skip
+    history.update(cleared, now=101.0)
+    assert history.overrunning(101.0) and history.new_overruns == 3
+    assert not history.overrunning(101.0 + watch.OVERRUN_HOLD_S)
+    (seen,) = history.alarms
+    assert (seen.code, seen.raised, seen.cleared) == (0x411, 1_800_000_000.25, 1_800_000_010.0)
+    again = first._replace(wallTimeS=1_800_000_020.0)
+    history.update(again, now=102.0)
+    assert [a.cleared for a in history.alarms] == [1_800_000_010.0, None]
+    console = Console(width=160, record=True, force_terminal=False)
+    console.print(watch.render(again, "addr", history=history, now=102.0))
+    text = console.export_text()
+    assert "(+3)" in text and text.count("0x0411") == 2 and "active" in text
 
 
 def test_watch_ends_cleanly(capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon):
