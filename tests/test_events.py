@@ -46,6 +46,7 @@ def test_state_changes_are_logged_once(caplog: pytest.LogCaptureFixture):
     ev.observe(core)
     core.state = CoreState.ALARM
     ev.observe(core)
+    assert ev.flush()
     changes = [(e["from"], e["to"], e["level"]) for e in events(caplog, "state changed")]
     assert changes == [("ready", "busy", "info"), ("busy", "alarm", "warning")]
 
@@ -71,6 +72,7 @@ def test_motion_end_carries_result_and_duration(
         ev.ending(ending)
     core.motion, core.state = None, state
     ev.observe(core)
+    assert ev.flush()
     (started,) = events(caplog, "motion started")
     (ended,) = events(caplog, "motion ended")
     assert started["motion"] == ended["motion"] == "RIGHT linear move"
@@ -83,6 +85,7 @@ def test_a_motion_replaced_by_the_next_is_ended_first(caplog: pytest.LogCaptureF
     ev = LoopEvents()
     ev.motion_started("a", object())
     ev.motion_started("b", object())
+    assert ev.flush()
     assert [(e["motion"], e["result"]) for e in events(caplog, "motion ended")] == [
         ("a", "replaced")
     ]
@@ -100,6 +103,7 @@ def test_every_alarm_raised_and_cleared_is_logged(caplog: pytest.LogCaptureFixtu
     ev.observe(core)
     core.alarms = []
     ev.observe(core)
+    assert ev.flush()
     raised = [(e["code"], e["source"], e["description"]) for e in events(caplog, "alarm raised")]
     assert raised == [("0x0411", "loop", "cycles overran"), ("0x0412", "queue", "no time law")]
     assert all(e["level"] == "warning" for e in events(caplog, "alarm raised"))
