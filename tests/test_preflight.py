@@ -12,6 +12,7 @@ import pytest
 from controller.contract.config import load_config
 from controller.daemon.main import main
 from controller.daemon.preflight import hal_options, preflight
+from controller.logs import stop_logging
 
 
 @pytest.fixture(autouse=True)
@@ -19,6 +20,7 @@ def _keep_root_logging() -> Iterator[None]:
     root = logging.getLogger()
     handlers, level = root.handlers[:], root.level
     yield
+    stop_logging()  # the writer thread holds this test's captured stderr
     root.handlers[:] = handlers
     root.setLevel(level)
 

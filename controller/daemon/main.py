@@ -306,7 +306,15 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``imotiond``; every log line is written before it returns."""
     args = parse_args(argv)
+    try:
+        return _main(args)
+    finally:
+        flush_logs()
+
+
+def _main(args: argparse.Namespace) -> int:
     try:
         cfg = load_config(
             args.config,
@@ -371,7 +379,6 @@ def main(argv: list[str] | None = None) -> int:
         systemd.notify("STOPPING=1")
         daemon.close()
     _log.info("stopped")
-    flush_logs()
     return daemon.exit_code
 
 
