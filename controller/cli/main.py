@@ -183,7 +183,7 @@ def _lookup(group: str, name: str | None, prog: str) -> CliOperation:
     if op is None:
         names = list(arguments.operations(group))
         if group == "integrated":
-            names += ["arm", "dual", "watch", "list"]
+            names += ["arm", "dual", "watch", "list", "record", "plot", "view"]
         close = difflib.get_close_matches(name, names, n=1)
         hint = f"; did you mean {close[0]}?" if close else f" (see {PROG} list)"
         raise UsageError(f"{prog}: unknown operation {name!r}{hint}")
