@@ -10,9 +10,11 @@ import io
 import itertools
 import json
 import os
+import re
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -21,10 +23,12 @@ import numpy as np
 import pytest
 from google.protobuf.descriptor import FieldDescriptor
 from rich.console import Console
+from rich.text import Text
 
-from controller.cli import arguments, wait
-from controller.cli.main import main
+from controller.cli import arguments, wait, watch
+from controller.cli.main import main, operation_parser
 from controller.client import Client, codes, pose, rpy_of
+from controller.client.convert import from_message
 from controller.rpc import imotion_pb2
 from tests import client_fake
 
@@ -268,6 +272,17 @@ def test_lists_structs_and_separators(
         (["dual", "servoOn"], "imotion dual: unknown operation 'servoOn'"),
         (["arm", "LEFT", "setSoftLimitJoint", "1", "2", "3"], "expected groups of 2"),
         (["getState", "--bogus"], "unrecognized arguments: --bogus"),
+        (["getState", "--jsn"], "did you mean --json?"),
+        (["--adress", "x", "getState"], "did you mean --address?"),
+        (["moveCPHoldRel", "RIGHT", "--elbo", "3"], "did you mean --elbow?"),
+        (["servoOnn"], "unknown operation 'servoOnn'; did you mean servoOn?"),
+        (["wach"], "did you mean watch?"),
+        (["arm", "LEFT", "servoOnn"], "did you mean servoON?"),
+        (["moveCPHoldRel", "R", "--elbow", "1", "--relPos", *"1234567"],
+         "relPos: give --relPos or its parts, not both"),
+        (["moveCPHoldRel", "R", "--elbow", "x"], "relPos.elbow: 'x' is not a number"),
+        (["moveCPHoldAbs", "R", "--elbow", "30", "--elbow-speed", "1"],
+         "absPos is an absolute target: give every part, missing --lumbarRx-absPos"),
         (["watch", "--rate", "-1"], "--rate must be a finite number >= 0"),
         ([], "usage: imotion"),
     ],
@@ -282,6 +297,86 @@ def test_usage_errors_exit_2_with_one_line(
     if argv:
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not fake.calls  # nothing sent for a bad command line
+
+
+def test_struct_parts_by_name(
+    capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon
+) -> None:
+    """moveCPHoldRel --elbow -30 --elbow-speed 20 instead of 20 positional numbers; the parts
+    left out are 0; a struct not named at all still comes positionally."""
+    code, _, err = run(
+        capsys, "moveCPHoldRel", "--side", "RIGHT", "--elbow", "-30", "--elbow-speed", "20",
+        "--elbow-accel", "40", "--vehicleX", "5",
+    )  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert r.rel_pos == imotion_pb2.RedundantPos(elbow=-30, vehicle_x=5)
+    assert r.speed == imotion_pb2.RedundantSpeed(elbow=20)
+    assert r.accel == imotion_pb2.RedundantAccel(elbow=40)
+    code, _, err = run(capsys, "moveCPHoldRel", "RIGHT", *"0000000", "--vehicleTranslation-speed",
+                       "50", *"123456")  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert r.speed == imotion_pb2.RedundantSpeed(vehicle_translation=50)
+    assert list(r.accel.ListFields()[i][1] for i in range(6)) == [1, 2, 3, 4, 5, 6]
+    code, _, err = run(
+        capsys, "moveLinearCartesianAbs", "RIGHT", "--xyz", "400", "0", "800",
+        "--translation", "50", "--rotation-speed", "30", "--translation-accel", "200",
+        "--rotation-accel", "100",
+    )  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert (r.speed.translation, r.speed.rotation) == (50, 30)
+    assert (r.accel.translation, r.accel.rotation) == (200, 100)
+
+
+def test_nested_struct_parts_by_name(
+    capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon
+) -> None:
+    code, _, err = run(
+        capsys, "selectRedundantAxes", "--elbow", "true", "--vehicleX-redundancy", "yes",
+        "--rightElbow-upper-limit", "90", "--rightElbow-lower", "-90",
+    )  # fmt: skip
+    assert code == 0, err
+    r = fake.last().request
+    assert r.redundancy == imotion_pb2.RedundantAxesMask(elbow=True, vehicle_x=True)
+    assert (r.limit.right_elbow.upper, r.limit.right_elbow.lower) == (90, -90)
+    assert r.limit.vehicle_x.upper == 0
+
+
+_UNIT = re.compile(r"(mm|deg|\bs\b|%|ms)")
+
+
+def _field_helps(op: arguments.CliOperation) -> dict[str, str]:
+    parser = operation_parser(op, f"imotion {op.name}")
+    return {a.dest: a.help or "" for a in parser._actions if a.dest.startswith(("f_", "l_"))}
+
+
+@pytest.mark.parametrize("group", list(arguments.GROUPS))
+def test_help_gives_units_for_every_number_and_no_developer_text(group: str) -> None:
+    for op in arguments.operations(group).values():
+        text = operation_parser(op, f"imotion {op.name}").format_help()
+        assert "``" not in text and ":mod:" not in text and ":func:" not in text, op.name
+        assert "how to give the arguments" in text
+        helps = _field_helps(op)
+        for f in op.fields:
+            numbers = f.type in (FieldDescriptor.TYPE_DOUBLE, FieldDescriptor.TYPE_FLOAT) or (
+                f.type == FieldDescriptor.TYPE_MESSAGE
+                and f.message_type.name not in ("RedundantAxesMask",)
+            )
+            if numbers:
+                assert _UNIT.search(helps[f"f_{f.name}"]), (op.name, f.name, helps[f"f_{f.name}"])
+            for leaf in arguments.leaves(f):
+                if leaf.path[-1].type == FieldDescriptor.TYPE_DOUBLE:
+                    assert _UNIT.search(helps[leaf.dest]), (op.name, leaf.dest, helps[leaf.dest])
+
+
+def test_operation_help_example(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["moveCPHoldRel", "--help"])
+    out = capsys.readouterr().out
+    assert "--elbow DEG, --elbow-relPos DEG" in out
+    assert "--elbow-speed DEG/S" in out and "--vehicleTranslation-accel MM/S^2" in out
 
 
 def test_operation_names_are_case_tolerant(
@@ -367,14 +462,19 @@ def test_token_and_address_options(
     assert fake.last("ServoOFFArm").metadata["authorization"] == "Bearer tok3"
 
 
-def _free_port() -> int:
+@pytest.fixture
+def refused_address() -> Iterator[str]:
+    """A 127.0.0.1 address where nothing listens: the port stays bound (never listening)
+    for the whole test, so no other process can take it meanwhile."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+        yield f"127.0.0.1:{s.getsockname()[1]}"
 
 
-def test_daemon_not_running(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    address = f"127.0.0.1:{_free_port()}"
+def test_daemon_not_running(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, refused_address: str
+) -> None:
+    address = refused_address
     code, out, err = run(capsys, "--address", address, "getState")
     assert code == 2 and not out
     assert err.startswith(f"imotion: imotion daemon at {address} unreachable")
@@ -385,8 +485,8 @@ def test_daemon_not_running(capsys: pytest.CaptureFixture[str], tmp_path: Path) 
     assert code == 2 and "cannot read the TLS root certificate" in err
 
 
-def test_console_script_module_prints_one_line() -> None:
-    env = {**os.environ, "PYTHONPATH": str(REPO), "IMOTION_ADDRESS": f"127.0.0.1:{_free_port()}"}
+def test_console_script_module_prints_one_line(refused_address: str) -> None:
+    env = {**os.environ, "PYTHONPATH": str(REPO), "IMOTION_ADDRESS": refused_address}
     proc = subprocess.run(
         [sys.executable, "-m", "controller.cli", "getVersion"],
         capture_output=True, text=True, env=env, timeout=60, check=False,
@@ -399,28 +499,85 @@ def test_console_script_module_prints_one_line() -> None:
 # ---------------------------------------------------------------- watch
 
 
-def test_watch_once_renders(capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon):
-    sample = imotion_pb2.StateSample(
+def _watch_sample(**kw: Any) -> imotion_pb2.StateSample:
+    fields: dict[str, Any] = dict(
         sequence=3, stamp_s=12.5, status_id=0x013, status_message="moving",
-        joints=[imotion_pb2.UnitJointPositions(unit=imotion_pb2.RIGHT_ARM, position=[1, 2, 3]),
+        joints=[imotion_pb2.UnitJointPositions(
+                    unit=imotion_pb2.RIGHT_ARM, position=[1, 2, 119.5], commanded=[1.5, 2, 119.5],
+                    names=["r_j1", "r_j2", "r_j3"],
+                    limits=[imotion_pb2.LimitValue(upper=u, lower=-u) for u in (90, 90, 120)]),
                 imotion_pb2.UnitJointPositions(unit=imotion_pb2.VEHICLE, position=[100, 5, 90])],
         control_points=[imotion_pb2.ControlPointPose(
             arm=imotion_pb2.RIGHT, pose=imotion_pb2.CarPosWithElbow(
                 car_pos=imotion_pb2.HgMatrix(m=client_fake.CANNED_HG), elbow=30))],
-        alarms=[imotion_pb2.Alarm(code=0x411, type=imotion_pb2.WARNING, description="overrun",
+        alarms=[imotion_pb2.Alarm(code=0x411, type=imotion_pb2.WARNING, description="overrun [x]",
                                   module_name="loop")],
         loop=imotion_pb2.LoopStats(cycles=1000, overruns=2,
                                    compute=imotion_pb2.LatencyStats(p50_us=80, p99_us=150,
                                                                     max_us=300)),
+        wall_time_s=1_800_000_000.25,
+        motion=imotion_pb2.MotionStatus(active=True, queued=2, queue_depth=8, started=5,
+                                        finished=4),
     )  # fmt: skip
-    fake.samples.append(sample)
+    fields.update(kw)
+    return imotion_pb2.StateSample(**fields)
+
+
+def test_watch_once_renders(
+    capsys: pytest.CaptureFixture[str],
+    fake: client_fake.FakeDaemon,
+    monkeypatch: pytest.MonkeyPatch,
+):
+    monkeypatch.setenv("COLUMNS", "200")  # a wide terminal: no cell folded
+    fake.samples.append(_watch_sample())
     code, out, err = run(capsys, "watch", "--once", "--rate", "5")
     assert code == 0, err
     assert fake.last("StreamState").request.rate_hz == 5.0
-    expected = ["0x013 Busy", "RIGHT_ARM", "J3 3", "VEHICLE", "x mm 100", "θ deg 90", "0x0411",
-                "overrun", "1000 cycles, 2 overruns", "p99 150", "30.0", "90.0"]  # fmt: skip
+    clock = time.strftime("%H:%M:%S", time.localtime(1_800_000_000)) + ".250"
+    expected = ["0x013 Busy", clock, "motion #5 running", "queue 2/8", "finished 4",
+                "RIGHT_ARM", "r_j1 [deg]", "1.5", "0.5", "-90 .. 90", "r_j3 [deg]",
+                "VEHICLE", "x [mm]", "theta [deg]", "0x0411", "overrun [x]", "active",
+                "1000 cycles, 2 overruns", "p99 150", "30.0", "90.0"]  # fmt: skip
     for text in expected:
         assert text in out, text
+
+
+def test_watch_marks_joints_near_their_limits() -> None:
+    sample = from_message(_watch_sample())
+    rows = watch.joint_rows(sample.joints[0])
+    assert [Text.from_markup(cells[0]).plain for cells, _ in rows] == [
+        "r_j1 [deg]",
+        "r_j2 [deg]",
+        "r_j3 [deg]",
+    ]
+    assert [cells[5] for cells, _ in rows] == ["89", "88", "0.5"]  # distance to the limit
+    assert [style for _, style in rows] == ["", "", "bold red"]  # 0.5 of 240: within 2 %
+    near = from_message(_watch_sample()).joints[0]._replace(position=[75.0, 0, 0])
+    assert watch.joint_rows(near)[0][1] == "yellow"  # 15 of 180: within 10 %
+    old = watch.joint_rows(sample.joints[1])  # no names, commands or limits (older daemon)
+    assert [Text.from_markup(c[0]).plain for c, _ in old] == ["x [mm]", "y [mm]", "theta [deg]"]
+    assert old[0][0][2:] == ["-", "-", "-", "-"]
+
+
+def test_watch_keeps_alarm_history_and_highlights_overruns() -> None:
+    history = watch.WatchHistory()
+    first = from_message(_watch_sample())
+    history.update(first, now=100.0)
+    assert not history.overrunning(100.0)  # the first count is the baseline
+    cleared = first._replace(alarms=[], wallTimeS=1_800_000_010.0,
+                             loop=first.loop._replace(overruns=5))  # fmt: skip
+    history.update(cleared, now=101.0)
+    assert history.overrunning(101.0) and history.new_overruns == 3
+    assert not history.overrunning(101.0 + watch.OVERRUN_HOLD_S)
+    (seen,) = history.alarms
+    assert (seen.code, seen.raised, seen.cleared) == (0x411, 1_800_000_000.25, 1_800_000_010.0)
+    again = first._replace(wallTimeS=1_800_000_020.0)
+    history.update(again, now=102.0)
+    assert [a.cleared for a in history.alarms] == [1_800_000_010.0, None]
+    console = Console(width=160, record=True, force_terminal=False)
+    console.print(watch.render(again, "addr", history=history, now=102.0))
+    text = console.export_text()
+    assert "(+3)" in text and text.count("0x0411") == 2 and "active" in text
 
 
 def test_watch_ends_cleanly(capsys: pytest.CaptureFixture[str], fake: client_fake.FakeDaemon):

@@ -23,6 +23,7 @@ from pathlib import Path
 import grpc
 import pytest
 
+from controller.contract.config import load_config
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import CoreState
@@ -404,7 +405,7 @@ class _FakeDaemon:
         self.exit_code = 0
         self.alive = True
         self.gateway = None
-        self.cfg = type("Cfg", (), {"gateway_restarts": 0})()  # a dead gateway ends it
+        self.cfg = load_config(None, {"gateway_restarts": 0})  # a dead gateway ends it
 
     def gateway_alive(self) -> bool:
         return self.alive

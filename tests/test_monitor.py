@@ -65,3 +65,39 @@ def test_samples(d: TestDaemon):
     assert len(first.control_points[0].pose.car_pos.m) == 12
     assert not first.alarms
     assert second.loop.cycles > first.loop.cycles > 0
+
+
+def test_samples_name_joints_with_limits_commands_motion_and_wall_time(d: TestDaemon):
+    """What `imotion watch` shows: joint names and limits, commanded vs measured, the
+    running motion and the queue, the daemon's wall-clock time."""
+    d.reset()
+    assert d.wait_for(lambda: d.state() == S.READY)
+    before = _first(d.monitor.StreamState(pb.StreamStateRequest(rate_hz=50.0)))
+    arm = before.joints[0]
+    assert list(arm.names) == list(d.ctx.robot.unit_joints("RIGHT_ARM"))
+    assert len(arm.commanded) == len(arm.limits) == len(arm.position) == 7
+    assert all(lim.upper > lim.lower for lim in arm.limits)
+    assert all(lim.lower <= p <= lim.upper for lim, p in zip(arm.limits, arm.position, strict=True))
+    assert before.wall_time_s > 1.6e9  # seconds since the Unix epoch, not a monotonic clock
+    assert before.motion.queue_depth == d.cfg.queue_depth and before.motion.queued == 0
+    assert not before.motion.active
+    target = list(arm.position)
+    target[0] += 20.0
+    reply = d.middle.MovePTPJointAbs(
+        pb.ManipulatorMiddleMovePTPJointAbsRequest(arm=pb.RIGHT, joint_points=target)
+    )
+    assert reply.return_id.id == 0, reply.return_id.comment
+    stream = d.monitor.StreamState(pb.StreamStateRequest(rate_hz=250.0))
+    moving = None
+    for sample in stream:
+        if sample.motion.active:
+            moving = sample
+            break
+        if sample.motion.finished > before.motion.finished:
+            break  # ended before a sample caught it (a very slow machine)
+    stream.cancel()
+    assert moving is None or moving.motion.started == before.motion.started + 1
+    assert d.wait_idle()
+    after = _first(d.monitor.StreamState(pb.StreamStateRequest(rate_hz=50.0)))
+    assert after.motion.started == after.motion.finished == before.motion.started + 1
+    assert after.joints[0].commanded[0] == pytest.approx(target[0], abs=0.01)

@@ -42,6 +42,25 @@ _FALSE = {"false", "0", "no", "off", "f", "n"}
 _ALIASES = {"RightLeft": "--side", "FrameType": "--frame", "CommandFrameType": "--frame"}
 _ALIASES["UnitType"] = "--unit"
 
+#: Options of the command line itself (never taken by an operation's argument).
+RESERVED = {"--address", "--token", "--tls-ca", "--timeout", "--json", "--wait"}
+RESERVED |= {"--wait-timeout", "--version", "--help"}
+
+#: How arguments are given, for ``imotion OPERATION --help`` (docs/client.md has the same).
+RULES = """\
+how to give the arguments:
+  Each field is --FIELD VALUES, or positional: fields not given as options take the
+  positional values in field order. A struct is its numbers in field order, or its parts by
+  name (--elbow -30 --elbow-speed 20: parts not given are 0, except in an absolute target).
+  A pose (HgMatrix) is X Y Z ROLL PITCH YAW (mm, deg; roll-pitch-yaw about fixed x, y, z),
+  or --xyz X Y Z / --rpy R P Y (each 0 when left out) or --matrix with 12 numbers
+  (row-major [R | p], p in mm); a CarPosWithElbow also takes --elbow DEG, --structFlag N.
+  A list takes the values up to the end or up to a lone ",". Enum names are
+  case-insensitive, a unique prefix will do (base = BASE_FRAME). Booleans:
+  true/false/1/0/yes/no/on/off, false when left out. --side, --frame and --unit stand for
+  the RightLeft, frame and UnitType fields.
+"""
+
 #: Command groups: name -> (services, request fields bound by the group).
 GROUPS: dict[str, tuple[list[str], tuple[str, ...]]] = {
     "integrated": (["IntegratedMotion"], ()),
@@ -81,17 +100,68 @@ def layout(f: FieldDescriptor) -> str:
     return f"{word} ..." if f.is_repeated else word
 
 
-def units(d: Descriptor) -> str:
-    """Units of a struct's fields, from the .proto comments (``translation mm/s, ...``)."""
+def units(d: Descriptor, hint: str = "") -> str:
+    """Units of a struct's fields, from the .proto comments (``translation mm/s, ...``);
+    ``hint``: the unit of the field holding the struct, for fields without their own."""
     if d.name == HG:
         return "x y z mm, roll pitch yaw deg"
     parts = []
     for f in d.fields:
+        text = comment(d.name, f.name).split(";")[0].strip()
         if f.type == FieldDescriptor.TYPE_MESSAGE:
-            parts.append(f"{f.json_name}: {units(f.message_type)}")
-        elif text := comment(d.name, f.name):
-            parts.append(f"{f.json_name} {text.split(';')[0]}")
+            inner = units(f.message_type, text or hint)
+            parts.append(f"{f.json_name}: {inner}" if inner else f"{f.json_name} {text}")
+        elif text or hint:
+            parts.append(f"{f.json_name} {text or hint}")
     return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class Leaf:
+    """One number (or boolean) of a struct argument, given by name: ``--elbow-speed 20``."""
+
+    field: FieldDescriptor  #: the request field holding the struct
+    path: tuple[FieldDescriptor, ...]  #: struct fields down to the leaf
+    unit: str
+
+    @property
+    def key(self) -> str:
+        return "-".join(p.json_name for p in self.path)
+
+    @property
+    def option(self) -> str:
+        return f"--{self.key}-{self.field.json_name}"
+
+    @property
+    def dest(self) -> str:
+        return f"l_{self.field.name}__{'__'.join(p.name for p in self.path)}"
+
+
+def leaves(f: FieldDescriptor) -> list[Leaf]:
+    """The named parts of a struct field (none for lists, poses and plain values)."""
+    if not is_struct(f):
+        return []
+    out: list[Leaf] = []
+
+    def walk(d: Descriptor, path: tuple[FieldDescriptor, ...], hint: str) -> None:
+        for sub in d.fields:
+            text = comment(d.name, sub.name).split(";")[0].strip() or hint
+            if sub.type == FieldDescriptor.TYPE_MESSAGE:
+                walk(sub.message_type, (*path, sub), text)
+            elif not sub.is_repeated:
+                out.append(Leaf(f, (*path, sub), text))
+
+    walk(f.message_type, (), comment(f.containing_type.name, f.name).split(";")[0].strip())
+    return out
+
+
+def is_struct(f: FieldDescriptor) -> bool:
+    """A single struct other than a pose (those have --xyz/--rpy parts)."""
+    return (
+        f.type == FieldDescriptor.TYPE_MESSAGE
+        and not f.is_repeated
+        and f.message_type.name not in POSE_TYPES
+    )
 
 
 @dataclass
@@ -157,8 +227,9 @@ def add_arguments(parser: argparse.ArgumentParser, op: CliOperation) -> None:
             names.append(alias)
         arity = field_arity(f)
         text = comment(request, f.name)
-        if f.type == FieldDescriptor.TYPE_MESSAGE and f.message_type.name != HG:
-            text = f"{text} ({units(f.message_type)})" if text else units(f.message_type)
+        if f.type == FieldDescriptor.TYPE_MESSAGE:
+            unit_text = units(f.message_type, text.split(";")[0].strip())
+            text = f"{text} ({unit_text})" if text else unit_text
         if f.type == FieldDescriptor.TYPE_BOOL:
             text = f"{text} (default false)" if text else "default false"
         parser.add_argument(
@@ -166,7 +237,7 @@ def add_arguments(parser: argparse.ArgumentParser, op: CliOperation) -> None:
             dest=f"f_{f.name}",
             nargs=arity if arity and arity > 1 else ("+" if arity is None else None),
             metavar=tuple(layout(f).split()) if arity and arity > 1 else layout(f),
-            help=text or None,
+            help=_escape(text) or None,
         )
     for f in op.pose_fields:
         prefix = op.pose_prefix(f)
@@ -182,7 +253,51 @@ def add_arguments(parser: argparse.ArgumentParser, op: CliOperation) -> None:
                 metavar=metavar,
                 help=text,
             )
+    for f in op.fields:
+        _add_leaves(parser, op, f)
     parser.add_argument("values", nargs="*", metavar="VALUE", help="fields given positionally")
+
+
+def _add_leaves(parser: argparse.ArgumentParser, op: CliOperation, f: FieldDescriptor) -> None:
+    parts = leaves(f)
+    if not parts:
+        return
+    group = parser.add_argument_group(
+        f"{f.json_name} by name",
+        "parts not given are 0 (false)"
+        + (", except in an absolute target: give them all" if is_target(op, f) else ""),
+    )
+    for leaf in parts:
+        names = [leaf.option]
+        short = f"--{leaf.key}"  # the first struct with this part also answers to --part
+        first = next(g for g in op.fields if any(x.key == leaf.key for x in leaves(g)))
+        if first is f and short not in parser._option_string_actions and short not in RESERVED:
+            names.insert(0, short)
+        kind = leaf.path[-1].type
+        word = "true|false" if kind == FieldDescriptor.TYPE_BOOL else "N"
+        if leaf.unit and " " not in leaf.unit and kind != FieldDescriptor.TYPE_BOOL:
+            word = leaf.unit.upper()
+        group.add_argument(
+            *names,
+            dest=leaf.dest,
+            metavar=word,
+            help=_escape(
+                f"{f.json_name}.{leaf.key.replace('-', '.')}"
+                + (f", {leaf.unit}" if leaf.unit else "")
+            ),
+        )
+
+
+def _escape(text: str) -> str:
+    """argparse help texts are %-templates: a literal % (ratios) must be doubled."""
+    return text.replace("%", "%%")
+
+
+def is_target(op: CliOperation, f: FieldDescriptor) -> bool:
+    """The first struct of an absolute move (every part must be given: a part left out
+    would silently become a target of 0)."""
+    structs = [g for g in op.fields if is_struct(g)]
+    return op.name.endswith("Abs") and bool(structs) and structs[0] is f
 
 
 #: Pose parts: (name, nargs, type, metavar, help).
@@ -220,13 +335,20 @@ def bind(op: CliOperation, ns: argparse.Namespace) -> dict[str, Any]:
             for part in ("xyz", "rpy", "matrix", "elbow", "structFlag")
         }
         parts = {k: v for k, v in parts.items() if v is not None}
-        if given is not None and parts:
+        named: dict[Leaf, str] = {
+            leaf: getattr(ns, leaf.dest)
+            for leaf in leaves(f)
+            if getattr(ns, leaf.dest, None) is not None
+        }
+        if given is not None and (parts or named):
             raise ArgumentError(f"{f.json_name}: give --{f.json_name} or its parts, not both")
         if given is not None:
             tokens = given if isinstance(given, list) else [given]
             values[f.json_name] = parse_field(f, tokens, f.json_name)
         elif parts:
             values[f.json_name] = _from_parts(f, parts)
+        elif named:
+            values[f.json_name] = _from_leaves(op, f, named)
         else:
             pending.append(f)
     tokens = list(ns.values or [])
@@ -259,6 +381,27 @@ def _missing(op: CliOperation, f: FieldDescriptor, have: int = 0) -> ArgumentErr
     if f in op.pose_fields:
         hint += f", or {op.pose_prefix(f)}xyz/{op.pose_prefix(f)}rpy/{op.pose_prefix(f)}matrix"
     return ArgumentError(f"missing {f.json_name}: {layout(f)}{got}; give it as {hint}")
+
+
+def _from_leaves(op: CliOperation, f: FieldDescriptor, named: dict[Leaf, str]) -> Any:
+    """A struct from its parts given by name; the others 0 / false (see :func:`is_target`)."""
+    missing = [leaf.option for leaf in leaves(f) if leaf not in named]
+    if missing and is_target(op, f):
+        raise ArgumentError(
+            f"{f.json_name} is an absolute target: give every part, missing {' '.join(missing)}"
+        )
+    out: dict[str, Any] = {}
+    for leaf in leaves(f):
+        node = out
+        for p in leaf.path[:-1]:
+            node = node.setdefault(p.json_name, {})
+        last = leaf.path[-1]
+        if leaf in named:
+            where = f"{f.json_name}.{leaf.key.replace('-', '.')}"
+            node[last.json_name] = parse_scalar(last, named[leaf], where)
+        else:
+            node[last.json_name] = False if last.type == FieldDescriptor.TYPE_BOOL else 0
+    return out
 
 
 def _from_parts(f: FieldDescriptor, parts: dict[str, Any]) -> Any:

@@ -31,6 +31,7 @@ from controller.client.convert import resolve_enum
 from controller.client.errors import ArgumentError, ClientError, RpcFailed
 from controller.client.types import RightLeft
 from controller.rpc import imotion_pb2, imotion_pb2_grpc
+from controller.version import add_version_argument
 
 PROG = "imotion"
 
@@ -40,10 +41,24 @@ class UsageError(Exception):
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (raised, so that main() decides the output)."""
+    """argparse with one-line errors (raised, so that main() decides the output) and a
+    did-you-mean for unknown options."""
 
     def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{self.prog}: {message}")
+        raise UsageError(f"{self.prog}: {message}{self._suggestion(message)}")
+
+    def _suggestion(self, message: str) -> str:
+        if not message.startswith("unrecognized arguments:"):
+            return ""
+        known = [o for o in self._option_string_actions if o.startswith("--")]
+        hints = []
+        for word in message.split(":", 1)[1].split():
+            flag = word.split("=", 1)[0]
+            if flag.startswith("--"):
+                close = difflib.get_close_matches(flag, known, n=1, cutoff=0.6)
+                if close:
+                    hints.append(close[0])
+        return f"; did you mean {', '.join(hints)}?" if hints else ""
 
 
 def add_global_options(parser: argparse.ArgumentParser, suppress: bool) -> None:
@@ -138,6 +153,7 @@ def top_parser() -> Parser:
         allow_abbrev=False,
     )
     add_global_options(parser, suppress=False)
+    add_version_argument(parser)
     parser.add_argument("command", nargs="?", help="an operation, arm, dual, watch or list")
     parser.add_argument("args", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
     return parser
@@ -151,12 +167,12 @@ def operation_parser(op: CliOperation, prog: str) -> Parser:
         prog=prog,
         description=" ".join(doc.split()),
         usage=f"{prog} [options] {op.usage()}".rstrip(),
-        epilog=arguments.__doc__,
+        epilog=arguments.RULES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
         allow_abbrev=False,
     )
-    add_global_options(parser, suppress=True)
     arguments.add_arguments(parser, op)
+    add_global_options(parser, suppress=True)
     return parser
 
 
@@ -166,6 +182,8 @@ def _lookup(group: str, name: str | None, prog: str) -> CliOperation:
     op = arguments.find(group, name)
     if op is None:
         names = list(arguments.operations(group))
+        if group == "integrated":
+            names += ["arm", "dual", "watch", "list", "record", "plot", "view"]
         close = difflib.get_close_matches(name, names, n=1)
         hint = f"; did you mean {close[0]}?" if close else f" (see {PROG} list)"
         raise UsageError(f"{prog}: unknown operation {name!r}{hint}")

@@ -112,6 +112,9 @@ class ManipInfo(NamedTuple):
 class UnitJointPositions(NamedTuple):
     unit: UnitType
     position: list[float]  # arm/waist [deg]; VEHICLE x, y [mm], θ [deg]
+    commanded: list[float]  # the controller's command, units of position
+    names: list[str]  # joint names in position order (VEHICLE: x, y, theta)
+    limits: list[LimitValue]  # position limits, units of position (VEHICLE: none)
 
 
 class ControlPointPose(NamedTuple):
@@ -132,6 +135,14 @@ class LoopStats(NamedTuple):
     wakeLatency: LatencyStats
 
 
+class MotionStatus(NamedTuple):
+    active: bool  # an arm/body motion is running
+    queued: int  # JARA motions waiting
+    queueDepth: int
+    started: int  # motions started since the daemon started
+    finished: int
+
+
 class StateSample(NamedTuple):
     """One Monitor.StreamState sample."""
 
@@ -143,6 +154,8 @@ class StateSample(NamedTuple):
     controlPoints: list[ControlPointPose]
     alarms: list[Alarm]
     loop: LoopStats
+    wallTimeS: float  # [s] since the Unix epoch, daemon clock
+    motion: MotionStatus
 
 
 #: Proto message name -> Python struct type (HgMatrix is a numpy array, not listed).
@@ -164,6 +177,7 @@ MESSAGE_TYPES: dict[str, Any] = {
         ControlPointPose,
         LatencyStats,
         LoopStats,
+        MotionStatus,
         StateSample,
     )
 }

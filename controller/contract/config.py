@@ -33,6 +33,9 @@ class LoopConfig(_Strict):
     #: Write every cycle's wake latency and compute time here (.npz) when the daemon stops
     #: (benchmarks: tools/bench_clients.py); None: keep only the last second.
     stats_file: Path | None = None
+    #: One loop-health log line this often [s] (cycles, overruns, compute and wake-up
+    #: latency p99); a warning, at once, when cycles overran since the last line.
+    health_log_s: float = Field(default=60.0, gt=0.0)
 
 
 class RealtimeConfig(_Strict):

@@ -15,6 +15,7 @@ import pinocchio as pin
 
 from controller.contract.motion_specs import CartesianBox, JointStreamSpec, MotionSpec
 from controller.control.core import MotionCore
+from controller.control.events import LoopEvents
 from controller.control.motion_queue import MotionQueue
 from controller.control.publisher import SnapshotPublisher
 from controller.control.soft_limits import CartesianSoftLimits
@@ -35,6 +36,7 @@ class Commands:
 
     core: MotionCore
     queue: MotionQueue
+    events: LoopEvents
     soft_limits: CartesianSoftLimits
     publisher: SnapshotPublisher
     dt: float
@@ -58,6 +60,7 @@ class Commands:
             raise Refused(ReturnCode.NG, f"servo on failed: {exc}") from None
 
     def cmd_servo_off(self) -> None:
+        self.events.ending("servo off")
         self.queue.clear()
         self.core.servo_off()
 
@@ -66,12 +69,14 @@ class Commands:
 
     # ------------------------------------------------------------------ motion control
     def cmd_stop(self) -> None:
+        self.events.ending("stopped")
         self.queue.clear()
         self.core.stop()
         if self.core.state == CoreState.PAUSED and self.core.motion is None:
             self.core.resume()  # paused while idle: stop → Ready as from a paused motion
 
     def cmd_abort(self) -> None:
+        self.events.ending("aborted")
         self.queue.clear()
         self.core.abort()
 

@@ -31,6 +31,7 @@ from controller.contract.motion_specs import MotionSpec
 from controller.control.blackbox import BlackBoxRing
 from controller.control.commands import URGENT, Commands
 from controller.control.core import MotionCore
+from controller.control.events import LoopEvents
 from controller.control.loop import FixedRateLoop
 from controller.control.motion_queue import MotionQueue
 from controller.control.publisher import SnapshotPublisher
@@ -88,6 +89,8 @@ class Controller(Commands):
         self.started = 0
         self.finished = 0
         self._running_motion: object = None
+        #: Operator log of state changes, motions and alarms (queued, never written here).
+        self.events = LoopEvents()
         #: Set by a signal handler: decelerate, servo off, leave the loop.
         self.shutdown_requested = threading.Event()
         self._shutdown_deadline: float | None = None
@@ -162,6 +165,7 @@ class Controller(Commands):
             if self._running_motion is not None:
                 self.finished += 1
             self._running_motion = core.motion
+        self.events.observe(core)
         if core.state in (CoreState.SERVO_OFF, CoreState.ALARM):
             self.queue.clear()
         elif core.state == CoreState.READY and core.motion is None and self.queue:
@@ -180,7 +184,7 @@ class Controller(Commands):
         self.core.start(self._instantiate(spec))
         self._running_motion = self.core.motion
         self.started += 1
-        _log.info("motion started: %s", spec.label)
+        self.events.motion_started(spec.label, self.core.motion)
 
     def _instantiate(self, spec: MotionSpec) -> Motion:
         """The motion the gateway checked: built at the configuration it was planned from
@@ -206,6 +210,7 @@ class Controller(Commands):
         if self._shutdown_deadline is None:
             self._shutdown_deadline = now + self.stop_timeout
             self.queue.clear()
+            self.events.ending("stopped")
             self.core.stop()
             _log.info("shutdown: decelerating to a stop")
         if self.core.is_moving and now < self._shutdown_deadline:

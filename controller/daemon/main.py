@@ -29,7 +29,6 @@ from controller.contract.channel import CommandServer
 from controller.contract.config import (
     DaemonConfig,
     load_config,
-    security_problems,
     security_warnings,
 )
 from controller.control.blackbox import BlackBoxRing
@@ -37,9 +36,12 @@ from controller.control.cycle_log import CycleLog
 from controller.control.process import Controller
 from controller.control.realtime import apply_realtime, restore
 from controller.daemon import systemd
-from controller.logs import setup_logging
-from controller.model.robot import load_robot
+from controller.daemon.health import LoopHealth
+from controller.daemon.preflight import preflight
+from controller.logs import flush_logs, setup_logging
+from controller.model.robot import Robot, load_robot
 from controller.model.yaml_source import ConfigError
+from controller.version import add_version_argument
 from hal.factory import make_hardware
 
 _log = logging.getLogger("imotiond")
@@ -98,14 +100,22 @@ def _write_private(path: Path, text: str) -> None:
 class Daemon:
     """The control side of imotiond, usable in-process (tests) or from :func:`main`."""
 
-    def __init__(self, cfg: DaemonConfig):
+    def __init__(
+        self,
+        cfg: DaemonConfig,
+        robot: Robot | None = None,
+        hal_options: dict[str, Any] | None = None,
+    ):
+        """``robot`` and ``hal_options``: as :func:`~controller.daemon.preflight.preflight`
+        gave them (loaded / taken from ``cfg`` when None)."""
         from controller.gateway.process import BLACKBOX_NAME, JOINTS_NAME, SNAPSHOT_NAME
 
         self.cfg = cfg
+        self.robot = robot if robot is not None else load_robot(cfg.robot)
+        options = cfg.hal_options if hal_options is None else hal_options
         self.runtime = make_runtime_dir(cfg)
         self._own_runtime = cfg.runtime_dir is None
-        self.robot = load_robot(cfg.robot)
-        self.hw = make_hardware(cfg.hal, self.robot, cfg.period, cfg.hal_options)
+        self.hw = make_hardware(cfg.hal, self.robot, cfg.period, options)
         if cfg.power_on_at_start:
             self.hw.configure()
         self.controller = Controller(
@@ -208,15 +218,22 @@ def _readline(stream: Any, timeout: float) -> str:
 
 
 def _supervise(daemon: Daemon) -> None:
-    """Watchdog pings while the loop advances; STATUS= on state changes; gateway health."""
+    """Watchdog pings while the loop advances; STATUS= on state changes; gateway health;
+    the loop-health log line."""
     period = systemd.watchdog_period()
     interval = min(0.5, period / 3) if period else 0.5
+    interval = min(interval, daemon.cfg.loop.health_log_s)
     last_cycle = -1
     last_status = ""
     restarts: list[float] = []
     ctl = daemon.controller
+    health = LoopHealth(ctl, daemon.cfg.loop.health_log_s)
     while not ctl.shutdown_requested.is_set():
         time.sleep(interval)
+        try:
+            health.tick(time.monotonic())
+        except Exception:  # the watchdog must not stop over a log line
+            _log.exception("loop health line failed")
         cycles = ctl.core.cycles
         if cycles != last_cycle:
             systemd.notify("WATCHDOG=1")
@@ -284,11 +301,20 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="override any setting, e.g. --set queue_depth=16 (repeatable)",
     )
     p.add_argument("--check", action="store_true", help="validate the configuration and exit")
+    add_version_argument(p)
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``imotiond``; every log line is written before it returns."""
     args = parse_args(argv)
+    try:
+        return _main(args)
+    finally:
+        flush_logs()
+
+
+def _main(args: argparse.Namespace) -> int:
     try:
         cfg = load_config(
             args.config,
@@ -304,9 +330,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"imotiond: configuration error:\n{exc}", file=sys.stderr)
         return 2
     setup_logging(cfg.log_level, "imotiond")
-    problems = security_problems(cfg)
-    if problems:
-        for problem in problems:
+    checked = preflight(cfg)
+    if checked.problems:
+        for problem in checked.problems:
             _log.error("refusing to start: %s", problem)
         return 2
     for warning in security_warnings(cfg):
@@ -316,7 +342,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     systemd.notify("STATUS=starting: loading the robot and the hardware layer")
     try:
-        daemon = Daemon(cfg)
+        daemon = Daemon(cfg, checked.robot, checked.hal_options)
     except (ConfigError, ValueError, OSError, RuntimeError) as exc:  # RuntimeDirError too
         _log.error("cannot start: %s", exc)
         return 2

@@ -1547,12 +1547,18 @@ class StreamStateRequest(_message.Message):
     def __init__(self, rate_hz: _Optional[float] = ...) -> None: ...
 
 class UnitJointPositions(_message.Message):
-    __slots__ = ("unit", "position")
+    __slots__ = ("unit", "position", "commanded", "names", "limits")
     UNIT_FIELD_NUMBER: _ClassVar[int]
     POSITION_FIELD_NUMBER: _ClassVar[int]
+    COMMANDED_FIELD_NUMBER: _ClassVar[int]
+    NAMES_FIELD_NUMBER: _ClassVar[int]
+    LIMITS_FIELD_NUMBER: _ClassVar[int]
     unit: UnitType
     position: _containers.RepeatedScalarFieldContainer[float]
-    def __init__(self, unit: _Optional[_Union[UnitType, str]] = ..., position: _Optional[_Iterable[float]] = ...) -> None: ...
+    commanded: _containers.RepeatedScalarFieldContainer[float]
+    names: _containers.RepeatedScalarFieldContainer[str]
+    limits: _containers.RepeatedCompositeFieldContainer[LimitValue]
+    def __init__(self, unit: _Optional[_Union[UnitType, str]] = ..., position: _Optional[_Iterable[float]] = ..., commanded: _Optional[_Iterable[float]] = ..., names: _Optional[_Iterable[str]] = ..., limits: _Optional[_Iterable[_Union[LimitValue, _Mapping]]] = ...) -> None: ...
 
 class ControlPointPose(_message.Message):
     __slots__ = ("arm", "pose")
@@ -1585,7 +1591,7 @@ class LoopStats(_message.Message):
     def __init__(self, cycles: _Optional[int] = ..., overruns: _Optional[int] = ..., compute: _Optional[_Union[LatencyStats, _Mapping]] = ..., wake_latency: _Optional[_Union[LatencyStats, _Mapping]] = ...) -> None: ...
 
 class StateSample(_message.Message):
-    __slots__ = ("sequence", "stamp_s", "status_id", "status_message", "joints", "control_points", "alarms", "loop")
+    __slots__ = ("sequence", "stamp_s", "status_id", "status_message", "joints", "control_points", "alarms", "loop", "wall_time_s", "motion")
     SEQUENCE_FIELD_NUMBER: _ClassVar[int]
     STAMP_S_FIELD_NUMBER: _ClassVar[int]
     STATUS_ID_FIELD_NUMBER: _ClassVar[int]
@@ -1594,6 +1600,8 @@ class StateSample(_message.Message):
     CONTROL_POINTS_FIELD_NUMBER: _ClassVar[int]
     ALARMS_FIELD_NUMBER: _ClassVar[int]
     LOOP_FIELD_NUMBER: _ClassVar[int]
+    WALL_TIME_S_FIELD_NUMBER: _ClassVar[int]
+    MOTION_FIELD_NUMBER: _ClassVar[int]
     sequence: int
     stamp_s: float
     status_id: int
@@ -1602,4 +1610,20 @@ class StateSample(_message.Message):
     control_points: _containers.RepeatedCompositeFieldContainer[ControlPointPose]
     alarms: _containers.RepeatedCompositeFieldContainer[Alarm]
     loop: LoopStats
-    def __init__(self, sequence: _Optional[int] = ..., stamp_s: _Optional[float] = ..., status_id: _Optional[int] = ..., status_message: _Optional[str] = ..., joints: _Optional[_Iterable[_Union[UnitJointPositions, _Mapping]]] = ..., control_points: _Optional[_Iterable[_Union[ControlPointPose, _Mapping]]] = ..., alarms: _Optional[_Iterable[_Union[Alarm, _Mapping]]] = ..., loop: _Optional[_Union[LoopStats, _Mapping]] = ...) -> None: ...
+    wall_time_s: float
+    motion: MotionStatus
+    def __init__(self, sequence: _Optional[int] = ..., stamp_s: _Optional[float] = ..., status_id: _Optional[int] = ..., status_message: _Optional[str] = ..., joints: _Optional[_Iterable[_Union[UnitJointPositions, _Mapping]]] = ..., control_points: _Optional[_Iterable[_Union[ControlPointPose, _Mapping]]] = ..., alarms: _Optional[_Iterable[_Union[Alarm, _Mapping]]] = ..., loop: _Optional[_Union[LoopStats, _Mapping]] = ..., wall_time_s: _Optional[float] = ..., motion: _Optional[_Union[MotionStatus, _Mapping]] = ...) -> None: ...
+
+class MotionStatus(_message.Message):
+    __slots__ = ("active", "queued", "queue_depth", "started", "finished")
+    ACTIVE_FIELD_NUMBER: _ClassVar[int]
+    QUEUED_FIELD_NUMBER: _ClassVar[int]
+    QUEUE_DEPTH_FIELD_NUMBER: _ClassVar[int]
+    STARTED_FIELD_NUMBER: _ClassVar[int]
+    FINISHED_FIELD_NUMBER: _ClassVar[int]
+    active: bool
+    queued: int
+    queue_depth: int
+    started: int
+    finished: int
+    def __init__(self, active: _Optional[bool] = ..., queued: _Optional[int] = ..., queue_depth: _Optional[int] = ..., started: _Optional[int] = ..., finished: _Optional[int] = ...) -> None: ...

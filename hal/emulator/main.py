@@ -18,14 +18,13 @@ drives=<n>``, then answers to commands. stdin (optional): one command per line,
   ``-``),
 * ``clear [<kind>|-] [<joint>]``, ``status``;
 
-each answered on stdout by one line ``ok ...`` or ``error ...``. stderr: JSON log lines.
+each answered on stdout by one line ``ok ...`` or ``error ...``. stderr: logfmt log lines.
 SIGTERM and SIGINT close the buses and exit 0; a bus that cannot be opened exits 2.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import signal
 import sys
@@ -35,28 +34,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
+from controller.logs import setup_logging, stop_logging
 from controller.model.robot import load_robot
 from controller.model.yaml_source import ConfigError
+from controller.version import add_version_argument
 from hal.can.drive_profile import drives_path, load_drive_profile
 from hal.emulator.bridge import BusBridge
 from hal.emulator.emulator import DriveEmulator
 
 log = logging.getLogger("imotion-sim")
-
-
-class JsonFormatter(logging.Formatter):
-    """One JSON object per log record: ts, level, logger, msg (+ exc)."""
-
-    def format(self, record: logging.LogRecord) -> str:
-        entry: dict[str, Any] = {
-            "ts": round(record.created, 6),
-            "level": record.levelname.lower(),
-            "logger": record.name,
-            "msg": record.getMessage(),
-        }
-        if record.exc_info:
-            entry["exc"] = self.formatException(record.exc_info)
-        return json.dumps(entry)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -75,6 +61,7 @@ def _parser() -> argparse.ArgumentParser:
         help="python-can channel of a bus (repeat per bus)",
     )  # fmt: skip
     parser.add_argument("--log-level", default="info", help="debug, info, warning, error")
+    add_version_argument(parser)
     return parser
 
 
@@ -163,17 +150,15 @@ def main(argv: Sequence[str] | None = None) -> int:
               file=sys.stderr)  # fmt: skip
         return 2
     root, canopen_log = logging.getLogger(), logging.getLogger("canopen")
-    saved = root.level, canopen_log.level
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(JsonFormatter())
-    root.addHandler(handler)
-    root.setLevel(level)
+    saved = root.level, canopen_log.level, root.handlers[:]
+    setup_logging(args.log_level, "imotion-sim")  # the daemon's logfmt lines
     if level > logging.DEBUG:
         canopen_log.setLevel(logging.WARNING)  # one line per SDO otherwise
     try:
         return _run(args)
     finally:
-        root.removeHandler(handler)
+        stop_logging()
+        root.handlers[:] = saved[2]
         root.setLevel(saved[0])
         canopen_log.setLevel(saved[1])
 

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
+from google.protobuf import text_format
 
 from controller.contract.snapshot import Snapshot
 from controller.conversions import hg_to_se3, rad_to_deg, se3_to_hg
@@ -25,10 +26,12 @@ from controller.gateway.services.arguments import finite_arg as finite_arg
 from controller.gateway.services.arguments import positive_arg as positive_arg
 from controller.gateway.services.context import Context as Context
 from controller.gateway.services.jara_arm import CarPos, car_pos
+from controller.logs import get_logger
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode, RightLeft, UnitType
 
 _log = logging.getLogger("imotiond.service")
+_events = get_logger("imotiond.commands")
 
 
 def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
@@ -41,6 +44,8 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """
 
     def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
+        logged = not fn.__name__.startswith(_READS)
+
         @functools.wraps(fn)
         def handler(self: Any, request: Any, context: Any) -> Any:
             try:
@@ -49,6 +54,8 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
                 if isinstance(outs, str):
                     outs = {"comment": outs}
                 comment = outs.pop("comment", "OK")
+                if logged:
+                    _command_log(self, fn.__name__, request, context, ReturnCode.OK, comment)
                 return response(return_id=pb.ReturnID(id=ReturnCode.OK, comment=comment), **outs)
             except ChannelError as exc:
                 code, comment = ReturnCode.NG, f"the control loop is not reachable: {exc}"
@@ -57,12 +64,47 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
             except Exception as exc:  # never let a request take the gateway down
                 _log.exception("%s failed", fn.__name__)
                 code, comment = ReturnCode.NG, f"internal error in {fn.__name__}: {exc!r}"
-            _log.info("%s -> %s: %s", fn.__name__, ReturnCode(code).name, comment)
+            if logged:
+                _command_log(self, fn.__name__, request, context, code, comment)
             return response(return_id=pb.ReturnID(id=code, comment=comment))
 
         return handler
 
     return decorate
+
+
+#: Read-only operations (not logged: clients poll them).
+_READS = ("Get", "Is")
+
+
+def _command_log(
+    servicer: Any, name: str, request: Any, context: Any, code: int, comment: str
+) -> None:
+    """One line per command: operation, client (gRPC peer), arguments, result. Never
+    raises: a log problem must not change the reply."""
+    try:
+        _command_fields(servicer, name, request, context, code, comment)
+    except Exception:
+        _log.exception("cannot log command %s", name)
+
+
+def _command_fields(
+    servicer: Any, name: str, request: Any, context: Any, code: int, comment: str
+) -> None:
+    peer = getattr(context, "peer", None)
+    peer = peer() if callable(peer) else "-"
+    code_name = ReturnCode(code).name if code in ReturnCode._value2member_map_ else str(code)
+    fields = {
+        "op": name,
+        "service": type(servicer).__name__.removesuffix("Servicer"),
+        "peer": peer,
+        "args": text_format.MessageToString(request, as_one_line=True),
+        "result": code_name,
+    }
+    if code == ReturnCode.OK:
+        _events.info("command accepted", **fields)
+    else:
+        _events.info("command refused", **fields, comment=comment)
 
 
 # ------------------------------------------------------------------ argument checks

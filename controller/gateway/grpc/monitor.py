@@ -14,6 +14,7 @@ import time
 
 import grpc
 
+from controller.contract.snapshot import F_MOTION
 from controller.gateway.grpc.base import alarm_msgs, car_pos_msg
 from controller.gateway.grpc.replies import spec_a_state
 from controller.gateway.services.context import Context
@@ -21,6 +22,8 @@ from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import FrameType, UnitType
 
+#: Names of the vehicle's StreamState values (its pose, not joints).
+_VEHICLE_NAMES = ("x", "y", "theta")
 #: Slowest stream rate [Hz] (slower requests get this).
 MIN_RATE_HZ = 0.01
 
@@ -38,6 +41,9 @@ class MonitorServicer(pb_grpc.MonitorServicer):
             pb.UnitJointPositions(
                 unit=unit.name,
                 position=view.unit_positions(snap, unit).tolist(),
+                commanded=view.unit_positions(snap, unit, commanded=True).tolist(),
+                names=_VEHICLE_NAMES if unit == UnitType.VEHICLE else view.unit_joint_names(unit),
+                limits=[pb.LimitValue(upper=u, lower=lo) for u, lo in view.unit_limits(unit)],
             )
             for unit in UnitType
             if view.has_unit(unit)
@@ -65,6 +71,14 @@ class MonitorServicer(pb_grpc.MonitorServicer):
             control_points=points,
             alarms=alarm_msgs(snap),
             loop=loop,
+            wall_time_s=time.time(),
+            motion=pb.MotionStatus(
+                active=bool(snap.flags & F_MOTION),
+                queued=snap.queue,
+                queue_depth=snap.queue_depth,
+                started=snap.started,
+                finished=snap.finished,
+            ),
         )
 
     def StreamState(self, request, context):

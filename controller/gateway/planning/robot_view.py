@@ -61,19 +61,34 @@ class RobotView:
     def has_unit(self, unit: UnitType) -> bool:
         return bool(self.unit_joint_names(unit))
 
-    def unit_positions(self, snap: Snapshot, unit: UnitType) -> np.ndarray:
+    def unit_positions(self, snap: Snapshot, unit: UnitType, commanded: bool = False) -> np.ndarray:
         """A unit's joints in spec units: deg; vehicle x, y in mm and θ in deg (original
-        frame)."""
+        frame). ``commanded``: the controller's command instead of the measurement."""
+        q = snap.q_cmd if commanded else snap.q
         if unit == UnitType.VEHICLE:
-            with self.at(snap) as kin:
+            with self.at(snap, q[self.hw_index] if commanded else None) as kin:
                 x, y, th = kin.vehicle_pose()
             return np.array([*m_to_mm([x, y]), rad_to_deg(th)])
         out = []
         for name in self.unit_joint_names(unit):
             spec = self.robot.joints[name]
-            value = snap.q[self.hw_joints.index(name)]
+            value = q[self.hw_joints.index(name)]
             out.append(rad_to_deg(value) if spec.kind == "revolute" else m_to_mm(value))
         return np.array(out)
+
+    def unit_limits(self, unit: UnitType) -> list[tuple[float, float]]:
+        """``(upper, lower)`` position limits of a unit's joints, spec units (none for the
+        vehicle, whose x, y, θ are not joints)."""
+        if unit == UnitType.VEHICLE:
+            return []
+        out = []
+        for name in self.unit_joint_names(unit):
+            spec = self.robot.joints[name]
+            if spec.kind == "revolute":
+                out.append((float(rad_to_deg(spec.upper)), float(rad_to_deg(spec.lower))))
+            else:
+                out.append((float(m_to_mm(spec.upper)), float(m_to_mm(spec.lower))))
+        return out
 
     def pose(self, snap: Snapshot, side: RightLeft, frame: FrameType) -> tuple[pin.SE3, float]:
         """Control-point pose [m] in ``frame`` and elbow angle [rad] (0 for 6-axis arms)."""
