@@ -31,26 +31,18 @@ import logging
 import re
 import sys
 from collections.abc import Sequence
-from importlib import metadata
 from typing import NoReturn
 
 import can
 from rich.console import Console
 
 from controller.model.yaml_source import ConfigError
+from controller.version import version_line
 from hal.can.operations import COMMANDS, Context, ToolError
 from hal.can.setup import quiet_canopen
 from hal.can.supervision import DriveError
 
 PROG = "imotion-can"
-
-
-def version(distribution: str = "imotion") -> str:
-    """The installed version of ``distribution`` ("unknown" when not installed)."""
-    try:
-        return metadata.version(distribution)
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 class Parser(argparse.ArgumentParser):
@@ -134,7 +126,7 @@ def _int(text: str) -> int:
 def parser() -> argparse.ArgumentParser:
     assert __doc__ is not None
     p = Parser(prog=PROG, description=__doc__.split("\n")[0])
-    p.add_argument("--version", action="version", version=f"{PROG} {version()}")
+    p.add_argument("--version", action="version", version=version_line(PROG))
     _global_options(p, defaults=True)
     common = Parser(add_help=False)
     _global_options(common, defaults=False)
