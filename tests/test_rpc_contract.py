@@ -100,16 +100,25 @@ def test_generated_modules_are_current() -> None:
     assert not stale, f"stale generated files {stale}; run: python tools/gen_proto.py"
 
 
+#: imotion's own services beside the originals: the state stream and HIL fault injection.
+OWN_SERVICES = ("Monitor", "Testing")
+
+
 def test_package_and_grpc_module_import() -> None:
     assert imotion_pb2.DESCRIPTOR.package == "imotion.v1"
-    for service in [*SERVICES, "Monitor"]:
+    for service in [*SERVICES, *OWN_SERVICES]:
         assert hasattr(imotion_pb2_grpc, f"{service}Stub")
         assert hasattr(imotion_pb2_grpc, f"{service}Servicer")
         assert hasattr(imotion_pb2_grpc, f"add_{service}Servicer_to_server")
 
 
 def test_services_are_exactly_the_expected_ones() -> None:
-    assert set(imotion_pb2.DESCRIPTOR.services_by_name) == {*SERVICES, "Monitor"}
+    assert set(imotion_pb2.DESCRIPTOR.services_by_name) == {*SERVICES, *OWN_SERVICES}
+
+
+def test_testing_service_is_fault_injection_only() -> None:
+    methods = imotion_pb2.DESCRIPTOR.services_by_name["Testing"].methods_by_name
+    assert set(methods) == {"InjectFault", "ClearFaults"}
 
 
 def test_operation_counts() -> None:

@@ -79,6 +79,14 @@ class MonitorConfig(_Strict):
     max_streams: int = Field(default=8, ge=1, le=64)
 
 
+class TestingConfig(_Strict):
+    """Test-only services (never on a production robot)."""
+
+    #: Serve the Testing gRPC service: fault injection into the drive emulator of
+    #: ``--hal hil`` (a motion call: the motion token applies).
+    fault_injection: bool = False
+
+
 class ViewConfig(_Strict):
     """Live view: a Foxglove-protocol WebSocket server in the gateway process."""
 
@@ -135,6 +143,7 @@ class DaemonConfig(_Strict):
     security: SecurityConfig = SecurityConfig()
     jara: JaraConfig = JaraConfig()
     monitor: MonitorConfig = MonitorConfig()
+    testing: TestingConfig = TestingConfig()
     view: ViewConfig = ViewConfig()
     blackbox: BlackBoxConfig = BlackBoxConfig()
     #: Where the control process and the gateway meet (snapshot, command socket);

@@ -21,10 +21,15 @@ from controller.control.publisher import SnapshotPublisher
 from controller.control.soft_limits import CartesianSoftLimits
 from controller.errors import Refused
 from controller.vocabulary import CoreState, ReturnCode, RightLeft
+from hal.interface import HardwareInterface
 
 #: A motion started "now" is refused when the robot moved more than this since planning
 #: [rad, m].
 PLAN_TOLERANCE = 2e-3
+
+#: Commands that do not touch the motion core and may block (they talk to another process):
+#: run in the calling channel thread, never in the loop thread.
+DIRECT = frozenset({"inject_fault", "clear_faults"})
 
 #: Commands that overtake every other waiting command (they only ever make the robot
 #: safer: they stop, pause or switch off).
@@ -35,6 +40,7 @@ class Commands:
     """The ``cmd_*`` handlers; mixed into :class:`controller.control.process.Controller`."""
 
     core: MotionCore
+    hw: HardwareInterface
     queue: MotionQueue
     events: LoopEvents
     soft_limits: CartesianSoftLimits
@@ -188,6 +194,30 @@ class Commands:
     def cmd_set_cartesian_box(self, side: RightLeft, box: CartesianBox | None) -> None:
         self._require_still("setSoftLimitCartesian")
         self.soft_limits.set(side, box)
+
+    # ------------------------------------------------------------------ testing (hal hil)
+    def _emulator(self) -> Any:
+        emulator = getattr(self.hw, "emulator", None)
+        if emulator is None:
+            raise Refused(
+                ReturnCode.STATUS_ERR,
+                "fault injection needs the drive emulator: start imotiond with --hal hil",
+            )
+        return emulator
+
+    def cmd_inject_fault(self, kind: str, target: str, params: dict[str, Any]) -> None:
+        """Inject fault ``kind`` into drive (or bus) ``target`` of the emulator."""
+        try:
+            self._emulator().inject(kind, target or None, **params)
+        except (ValueError, KeyError, TypeError) as exc:
+            raise Refused(ReturnCode.VALUE_ERR, f"inject {kind}: {exc}") from None
+
+    def cmd_clear_faults(self, kind: str = "", target: str = "") -> int:
+        """Clear lasting injected faults (all when ``kind`` and ``target`` are empty)."""
+        try:
+            return int(self._emulator().clear(kind or None, target or None))
+        except (ValueError, KeyError, TypeError) as exc:
+            raise Refused(ReturnCode.VALUE_ERR, f"clear faults: {exc}") from None
 
     def cmd_status(self) -> dict[str, Any]:
         return {"state": self.core.state, "queue": len(self.queue)}

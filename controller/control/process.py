@@ -29,7 +29,7 @@ from typing import Any
 
 from controller.contract.motion_specs import MotionSpec
 from controller.control.blackbox import BlackBoxRing
-from controller.control.commands import URGENT, Commands
+from controller.control.commands import DIRECT, URGENT, Commands
 from controller.control.core import MotionCore
 from controller.control.events import LoopEvents
 from controller.control.loop import FixedRateLoop
@@ -153,6 +153,9 @@ class Controller(Commands):
         Urgent commands (:data:`~controller.control.commands.URGENT`) go ahead of all others.
         """
         request = Request(name, args)
+        if name in DIRECT:  # blocks on another process: never in the loop thread
+            self._execute(request)
+            return request
         (self.urgent if name in URGENT else self.inbox).put(request)
         if not request.done.wait(timeout):
             request.cancelled = True

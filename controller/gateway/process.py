@@ -29,6 +29,7 @@ from controller.gateway.grpc.jara import add_jara_servicers
 from controller.gateway.grpc.malformed import MalformedRequestInterceptor
 from controller.gateway.grpc.monitor import MonitorServicer
 from controller.gateway.grpc.spec_a import IntegratedMotionServicer
+from controller.gateway.grpc.testing import TestingServicer
 from controller.gateway.observe.blackbox_writer import BlackBoxWriter
 from controller.gateway.observe.live_view import LiveView, start_live_view
 from controller.gateway.planning.planner import Planner
@@ -101,6 +102,7 @@ def add_servicers(server: grpc.Server, ctx: Context) -> None:
     pb_grpc.add_IntegratedMotionServicer_to_server(IntegratedMotionServicer(ctx), server)
     pb_grpc.add_MonitorServicer_to_server(MonitorServicer(ctx), server)
     add_jara_servicers(server, ctx)
+    pb_grpc.add_TestingServicer_to_server(TestingServicer(ctx), server)
 
 
 def bind(server: grpc.Server, cfg: DaemonConfig) -> str:

@@ -1627,3 +1627,42 @@ class MotionStatus(_message.Message):
     started: int
     finished: int
     def __init__(self, active: _Optional[bool] = ..., queued: _Optional[int] = ..., queue_depth: _Optional[int] = ..., started: _Optional[int] = ..., finished: _Optional[int] = ...) -> None: ...
+
+class TestingInjectFaultRequest(_message.Message):
+    __slots__ = ("kind", "target", "params")
+    class ParamsEntry(_message.Message):
+        __slots__ = ("key", "value")
+        KEY_FIELD_NUMBER: _ClassVar[int]
+        VALUE_FIELD_NUMBER: _ClassVar[int]
+        key: str
+        value: str
+        def __init__(self, key: _Optional[str] = ..., value: _Optional[str] = ...) -> None: ...
+    KIND_FIELD_NUMBER: _ClassVar[int]
+    TARGET_FIELD_NUMBER: _ClassVar[int]
+    PARAMS_FIELD_NUMBER: _ClassVar[int]
+    kind: str
+    target: str
+    params: _containers.ScalarMap[str, str]
+    def __init__(self, kind: _Optional[str] = ..., target: _Optional[str] = ..., params: _Optional[_Mapping[str, str]] = ...) -> None: ...
+
+class TestingInjectFaultResponse(_message.Message):
+    __slots__ = ("return_id",)
+    RETURN_ID_FIELD_NUMBER: _ClassVar[int]
+    return_id: ReturnID
+    def __init__(self, return_id: _Optional[_Union[ReturnID, _Mapping]] = ...) -> None: ...
+
+class TestingClearFaultsRequest(_message.Message):
+    __slots__ = ("kind", "target")
+    KIND_FIELD_NUMBER: _ClassVar[int]
+    TARGET_FIELD_NUMBER: _ClassVar[int]
+    kind: str
+    target: str
+    def __init__(self, kind: _Optional[str] = ..., target: _Optional[str] = ...) -> None: ...
+
+class TestingClearFaultsResponse(_message.Message):
+    __slots__ = ("return_id", "cleared")
+    RETURN_ID_FIELD_NUMBER: _ClassVar[int]
+    CLEARED_FIELD_NUMBER: _ClassVar[int]
+    return_id: ReturnID
+    cleared: int
+    def __init__(self, return_id: _Optional[_Union[ReturnID, _Mapping]] = ..., cleared: _Optional[int] = ...) -> None: ...

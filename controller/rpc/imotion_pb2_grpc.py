@@ -4570,3 +4570,139 @@ class Monitor:
             timeout,
             metadata,
             _registered_method=True)
+
+
+class TestingStub:
+    """============================================================================================
+    Testing: fault injection into the drive emulator of `imotiond --hal hil` (issue 17.11).
+    Off unless the daemon's configuration sets `testing.fault_injection: true`; a motion call
+    (the motion token applies). Kinds: emcy, silent, heartbeat_loss, following_error,
+    refuse_enable, bus_off, delayed_tpdo (docs/emulator.md); `target` is a drive (joint) name,
+    or a bus name for bus_off; params by name, as text ("code" = "0x8110", "cycles" = "2").
+    ============================================================================================
+    """
+
+    def __init__(self, channel):
+        """Constructor.
+
+        Args:
+            channel: A grpc.Channel.
+        """
+        self.InjectFault = channel.unary_unary(
+                '/imotion.v1.Testing/InjectFault',
+                request_serializer=controller_dot_rpc_dot_imotion__pb2.TestingInjectFaultRequest.SerializeToString,
+                response_deserializer=controller_dot_rpc_dot_imotion__pb2.TestingInjectFaultResponse.FromString,
+                _registered_method=True)
+        self.ClearFaults = channel.unary_unary(
+                '/imotion.v1.Testing/ClearFaults',
+                request_serializer=controller_dot_rpc_dot_imotion__pb2.TestingClearFaultsRequest.SerializeToString,
+                response_deserializer=controller_dot_rpc_dot_imotion__pb2.TestingClearFaultsResponse.FromString,
+                _registered_method=True)
+
+
+class TestingServicer:
+    """============================================================================================
+    Testing: fault injection into the drive emulator of `imotiond --hal hil` (issue 17.11).
+    Off unless the daemon's configuration sets `testing.fault_injection: true`; a motion call
+    (the motion token applies). Kinds: emcy, silent, heartbeat_loss, following_error,
+    refuse_enable, bus_off, delayed_tpdo (docs/emulator.md); `target` is a drive (joint) name,
+    or a bus name for bus_off; params by name, as text ("code" = "0x8110", "cycles" = "2").
+    ============================================================================================
+    """
+
+    def InjectFault(self, request, context):
+        """Missing associated documentation comment in .proto file."""
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+    def ClearFaults(self, request, context):
+        """Missing associated documentation comment in .proto file."""
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+
+def add_TestingServicer_to_server(servicer, server):
+    rpc_method_handlers = {
+            'InjectFault': grpc.unary_unary_rpc_method_handler(
+                    servicer.InjectFault,
+                    request_deserializer=controller_dot_rpc_dot_imotion__pb2.TestingInjectFaultRequest.FromString,
+                    response_serializer=controller_dot_rpc_dot_imotion__pb2.TestingInjectFaultResponse.SerializeToString,
+            ),
+            'ClearFaults': grpc.unary_unary_rpc_method_handler(
+                    servicer.ClearFaults,
+                    request_deserializer=controller_dot_rpc_dot_imotion__pb2.TestingClearFaultsRequest.FromString,
+                    response_serializer=controller_dot_rpc_dot_imotion__pb2.TestingClearFaultsResponse.SerializeToString,
+            ),
+    }
+    generic_handler = grpc.method_handlers_generic_handler(
+            'imotion.v1.Testing', rpc_method_handlers)
+    server.add_generic_rpc_handlers((generic_handler,))
+    server.add_registered_method_handlers('imotion.v1.Testing', rpc_method_handlers)
+
+
+ # This class is part of an EXPERIMENTAL API.
+class Testing:
+    """============================================================================================
+    Testing: fault injection into the drive emulator of `imotiond --hal hil` (issue 17.11).
+    Off unless the daemon's configuration sets `testing.fault_injection: true`; a motion call
+    (the motion token applies). Kinds: emcy, silent, heartbeat_loss, following_error,
+    refuse_enable, bus_off, delayed_tpdo (docs/emulator.md); `target` is a drive (joint) name,
+    or a bus name for bus_off; params by name, as text ("code" = "0x8110", "cycles" = "2").
+    ============================================================================================
+    """
+
+    @staticmethod
+    def InjectFault(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/imotion.v1.Testing/InjectFault',
+            controller_dot_rpc_dot_imotion__pb2.TestingInjectFaultRequest.SerializeToString,
+            controller_dot_rpc_dot_imotion__pb2.TestingInjectFaultResponse.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def ClearFaults(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/imotion.v1.Testing/ClearFaults',
+            controller_dot_rpc_dot_imotion__pb2.TestingClearFaultsRequest.SerializeToString,
+            controller_dot_rpc_dot_imotion__pb2.TestingClearFaultsResponse.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
