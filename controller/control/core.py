@@ -162,6 +162,8 @@ class MotionCore:
         with self._lock:
             if self.state != CoreState.READY:
                 raise CoreError(f"cannot start a motion while {self.state.text}")
+            box = self.ik.box
+            motion.respect_limits(box.q_min, box.q_max, box.a_brake)
             self._apply(motion.setup())
             self.motion = motion
             self.state = CoreState.BUSY

@@ -90,6 +90,11 @@ class Motion(abc.ABC):
     def paused(self) -> bool:
         return self.profile.state == ProfileState.PAUSED
 
+    def respect_limits(self, q_min: np.ndarray, q_max: np.ndarray, a_brake: np.ndarray) -> None:
+        """Fit the time law to the joint box the IK will enforce (position limits ``q_min``,
+        ``q_max`` [rad, m], planned braking deceleration ``a_brake`` [rad/s², m/s²], all
+        indexed like ``q``). Called once, before the motion starts; default: nothing to do."""
+
     def stop(self) -> None:
         self.profile.stop()
 
@@ -140,14 +145,32 @@ class JointMotion(Motion):
         hold: tuple[RightLeft, ...] = (),
     ):
         self.kin = kin
+        self.dt = dt
+        self.duration = duration
         self.joints = np.asarray(joints, dtype=int)
         self.path = VectorPath(kin.q[self.joints], target)
         v, a = self.path.limits(speed, accel)
         if self.path.is_empty:
             v, a = 1.0, 1.0
+        #: Limits of the path parameter [1/s, 1/s²].
+        self.profile_limits = (v, a)
         self.profile = PathProfile(dt, v, a, duration)
         self.track = PostureTask(kin.q.copy(), self.joints, gain=20.0, weight=1.0, level=1)
         self.hold = [ControlPointTask(side, kin.pose(side)) for side in hold]
+
+    def respect_limits(self, q_min: np.ndarray, q_max: np.ndarray, a_brake: np.ndarray) -> None:
+        """Lower the path acceleration where a joint's target lies closer to its limit than
+        its braking distance (see :func:`braking_safe_accel`): the IK brakes such a joint at
+        ``a_brake`` toward the limit, so a time law planned at the full acceleration would
+        leave it behind, and the feedback catching up would carry it past the target."""
+        if self.path.is_empty or self.profile.s > 0.0:
+            return
+        v, a = self.profile_limits
+        j = self.joints
+        fitted = braking_safe_accel(self.path, v, a, q_min[j], q_max[j], a_brake[j])
+        if fitted < a:
+            self.profile_limits = (v, fitted)
+            self.profile = PathProfile(self.dt, v, fitted, self.duration)
 
     def setup(self) -> IKSetup:
         frozen = np.ones(self.kin.nv, dtype=bool)
@@ -160,6 +183,40 @@ class JointMotion(Motion):
         now = self.path.at(s0)
         self.track.reference[self.joints] = now
         self.track.rate = (self.path.at(s1) - now) / dt
+
+
+#: Share of the planned braking deceleration a joint-space time law may use when it ends
+#: within braking distance of a limit (room for the discrete braking bound and the jerk
+#: ramps).
+BRAKING_FIT = 0.9
+
+
+def braking_safe_accel(
+    path: VectorPath,
+    v: float,
+    a: float,
+    q_min: np.ndarray,
+    q_max: np.ndarray,
+    a_brake: np.ndarray,
+) -> float:
+    """Largest path acceleration ≤ ``a`` [1/s²] (path rate ``v`` [1/s]) whose final
+    deceleration never asks a joint to be faster than its braking bound toward the limit
+    beyond its target: with margin ``m`` from target to limit, peak joint speed ``w`` and
+    braking deceleration ``b``, a joint decelerating at ``α`` from ``w`` needs
+    ``α·d ≤ b·(d + m)`` for every remaining distance ``d ≤ w²/(2α)``, i.e.
+    ``α ≤ w²·b / (w² − 2·b·m)`` when ``w² > 2·b·m`` (no bound otherwise)."""
+    delta = path.delta
+    for i, d in enumerate(delta):
+        extent = abs(float(d))
+        if extent < 1e-12:
+            continue
+        margin = float(q_max[i] - path.end[i]) if d > 0 else float(path.end[i] - q_min[i])
+        margin = max(margin, 0.0)
+        b = BRAKING_FIT * float(a_brake[i])
+        w2 = (v * extent) ** 2
+        if w2 > 2.0 * b * margin:
+            a = min(a, w2 * b / (w2 - 2.0 * b * margin) / extent)
+    return a
 
 
 class CartesianMotion(Motion):
