@@ -9,8 +9,10 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
+from controller.model.alarms import AlarmCode
 from controller.rpc import imotion_pb2 as pb
-from controller.service.codes import Code
+from controller.vocabulary import CoreState
+from controller.vocabulary import ReturnCode as Code
 from tests.daemon_support import TestDaemon
 
 OK = Code.OK
@@ -76,3 +78,176 @@ def test_ptp_joint_at_full_speed_never_passes_its_target(noid):
     samples = watch(d, lambda: jara_joints(d)[:7])
     assert samples[:, 2].max() <= 85.0 + 1e-3, samples[:, 2].max()
     np.testing.assert_allclose(samples[-1], target, atol=1e-3)
+
+
+# ------------------------------------------- 15.2 / 17.4 elbow changes in linear moves
+def car(x=0.0, y=0.0, z=0.0, elbow=0.0) -> pb.CarPosWithElbow:
+    m = np.hstack([np.eye(3), [[x], [y], [z]]])
+    return pb.CarPosWithElbow(car_pos=pb.HgMatrix(m=m.ravel().tolist()), elbow=elbow)
+
+
+def hand(d: TestDaemon, arm: int = 0) -> np.ndarray:
+    """Arm-frame position [mm] and elbow [deg] of ``arm``."""
+    r = d.middle.GetFeedbackPosCartesian(M("GetFeedbackPosCartesian", arm=arm))
+    return np.r_[np.array(r.pos.car_pos.m).reshape(3, 4)[:, 3], r.pos.elbow]
+
+
+def assert_still(d: TestDaemon, at: np.ndarray, reads: int = 25) -> None:
+    """Idle means still: the hand and elbow do not move over ``reads`` reads (~0.25 s)."""
+    for _ in range(reads):
+        np.testing.assert_allclose(hand(d), at, atol=1e-3)
+        time.sleep(0.01)
+
+
+@pytest.fixture(scope="module")
+def smartpal():
+    d = TestDaemon("smartpal5")
+    yield d
+    d.close()
+
+
+@pytest.fixture
+def sp(smartpal):
+    smartpal.reset()
+    smartpal.wait_idle()
+    yield smartpal
+    smartpal.middle.Stop(M("Stop"))
+    smartpal.wait_idle()
+
+
+def linear_rel(d: TestDaemon, move: tuple[float, float, float], elbow: float) -> np.ndarray:
+    """moveLinearCartesianRel; returns the samples until idle (x, y, z [mm], elbow [deg])."""
+    r = d.middle.MoveLinearCartesianRel(M("MoveLinearCartesianRel", car_point=car(*move, elbow)))
+    assert code(r) == OK, r.return_id.comment
+    return watch(d, lambda: hand(d))
+
+
+@pytest.mark.parametrize("dy", [1.0, 0.01])
+def test_small_linear_move_with_an_elbow_change_ends_on_target_and_still(noid, dy):
+    """Issue 15.2: dy = 1 mm with elbow +10 deg timed by the 1 mm alone: elbow 2.44 vs 2.13
+    deg, 0.54 mm off, joints still moving after idle (dy = 0.01: 1.8 deg overshoot)."""
+    d = noid
+    start = hand(d)
+    d.middle.MoveLinearCartesianRel(M("MoveLinearCartesianRel", car_point=car(elbow=5.0)))
+    assert d.wait_idle()
+    start = hand(d)
+    samples = linear_rel(d, (0.0, dy, 0.0), -5.0)
+    target = start + np.array([0.0, dy, 0.0, -5.0])
+    np.testing.assert_allclose(samples[-1][:3], target[:3], atol=1e-3)
+    assert abs(samples[-1][3] - target[3]) < 0.1
+    assert samples[:, 3].min() > target[3] - 0.1, "the elbow overshot"
+    assert_still(d, samples[-1])
+
+
+def test_linear_moves_with_elbow_changes_end_on_target_before_ready(sp):
+    """Issue 17.4: a linear move with an elbow change of ±40 deg ended Ready with the hand
+    and the elbow off their targets, then travelled on (20 mm here before the fix)."""
+    d = sp
+    for move, elbow in [((30.0, -20.0, 40.0), -40.0), ((-30.0, 20.0, -40.0), 40.0)]:
+        start = hand(d)
+        samples = linear_rel(d, move, elbow)
+        target = start + np.array([*move, elbow])
+        np.testing.assert_allclose(samples[-1][:3], target[:3], atol=1e-3)
+        assert abs(samples[-1][3] - target[3]) < 0.1, samples[-1][3] - target[3]
+        assert_still(d, samples[-1])
+        alarms = d.common.GetActiveAlarm(C("GetActiveAlarm")).alarms
+        assert not [a for a in alarms if a.code == AlarmCode.MOTION_INCOMPLETE], alarms
+
+
+# ------------------------------------------------------------------ 16.14 paused creep
+def snapshot_q(d: TestDaemon) -> np.ndarray:
+    return np.array(d.ctx.snapshot().q)
+
+
+def wait_cycles(d: TestDaemon, n: int) -> None:
+    start = d.ctx.snapshot().cycle
+    assert d.wait_for(lambda: d.ctx.snapshot().cycle >= start + n, 30.0)
+
+
+def test_a_paused_cartesian_move_holds_still(sp):
+    """Issue 16.14: joints crept ~2e-4 deg per 0.3 s while paused (the motion's posture and
+    null-space terms kept working with elbow and waist selected)."""
+    d = sp
+    mask = pb.RedundantAxesMask(elbow=True, lumbar_ry=True)
+    d.spec_a.SelectRedundantAxes(
+        pb.SelectRedundantAxesRequest(redundancy=mask, limit=pb.RedundantLimit())
+    )
+    try:
+        m = np.hstack([np.eye(3), [[0.0], [-60.0], [-80.0]]])
+        r = d.spec_a.MoveLinearCartesianRel(
+            pb.MoveLinearCartesianRelRequest(
+                type=pb.RIGHT,
+                rel_hg_mat=pb.HgMatrix(m=m.ravel().tolist()),
+                speed=pb.CartesianSpeed(translation=30.0, rotation=30.0),
+                accel=pb.CartesianAccel(translation=100.0, rotation=100.0),
+            )
+        )
+        assert code(r) == OK, r.return_id.comment
+        wait_cycles(d, 100)
+        d.spec_a.Pause(pb.PauseRequest())
+        assert d.wait_for(lambda: d.ctx.snapshot().core_state == CoreState.PAUSED, 10.0)
+        wait_cycles(d, 50)
+        held = snapshot_q(d)
+        wait_cycles(d, 75)  # 0.3 s at 250 Hz
+        np.testing.assert_allclose(snapshot_q(d), held, rtol=0, atol=1e-12)
+        d.spec_a.Resume(pb.ResumeRequest())
+        assert d.wait_idle()
+    finally:
+        d.spec_a.SelectRedundantAxes(
+            pb.SelectRedundantAxesRequest(
+                redundancy=pb.RedundantAxesMask(), limit=pb.RedundantLimit()
+            )
+        )
+
+
+# ------------------------------------------------------------------ 16.6 starved loop
+def test_a_starved_loop_keeps_motion_time_and_warns():
+    """Issue 16.6: with the loop starved (cycles taking longer than the period) a motion
+    took as many cycles as planned, i.e. stretched in time, and nothing said so. Now each
+    cycle advances the time law by the measured period, and sustained overruns raise a
+    LOOP_OVERRUN warning (the robot stays Ready, nothing stops)."""
+    d = TestDaemon("pa10")
+    try:
+        d.reset()
+        assert d.wait_idle()
+        move = pb.MoveUnitRelRequest(
+            unit=pb.RIGHT_ARM, rel_pos=[10, 0, 0, 0, 0, 0, 0], speed=[20.0], accel=[100.0]
+        )
+
+        def cycles_of_move(sign: float) -> int:
+            move.rel_pos[0] = 10.0 * sign
+            start = d.ctx.snapshot().cycle
+            assert code(d.spec_a.MoveUnitRel(move)) == OK
+            assert d.wait_idle()
+            return d.ctx.snapshot().cycle - start
+
+        nominal = cycles_of_move(1.0)
+        core = d.controller.core
+        cycle = core.cycle
+        period = 1.0 / d.cfg.loop.rate_hz
+
+        def slow_cycle(*args: float | None) -> None:
+            time.sleep(2.5 * period)
+            cycle(*args)
+
+        core.cycle = slow_cycle
+        try:
+            starved = cycles_of_move(-1.0)
+
+            def warned() -> bool:
+                alarms = d.spec_a.GetActiveAlarm(pb.GetActiveAlarmRequest()).alarms
+                return any(a.code == AlarmCode.LOOP_OVERRUN for a in alarms)
+
+            assert d.wait_for(warned, 30.0)
+        finally:
+            core.cycle = cycle
+        assert starved < 0.7 * nominal, (starved, nominal)
+        (alarm,) = [
+            a
+            for a in d.spec_a.GetActiveAlarm(pb.GetActiveAlarmRequest()).alarms
+            if a.code == AlarmCode.LOOP_OVERRUN
+        ]
+        assert alarm.type == pb.WARNING and "runs late" in alarm.description
+        assert d.ctx.snapshot().core_state == CoreState.READY
+    finally:
+        d.close()

@@ -76,10 +76,11 @@ class Motion(abc.ABC):
     def apply(self, s0: float, s1: float, dt: float) -> None:
         """Targets at path parameter ``s0`` (now), feed-forward toward ``s1`` (in ``dt``)."""
 
-    def advance(self) -> None:
-        """One cycle: step the time law, move the targets."""
+    def advance(self, dt: float | None = None) -> None:
+        """One cycle of ``dt`` [s] (default: the nominal period): step the time law, move
+        the targets."""
         s0 = self.profile.s
-        self.profile.step()
+        self.profile.step(dt)
         self.apply(s0, self.profile.s, self.profile.dt)
 
     @property
@@ -90,7 +91,9 @@ class Motion(abc.ABC):
     def paused(self) -> bool:
         return self.profile.state == ProfileState.PAUSED
 
-    def respect_limits(self, q_min: np.ndarray, q_max: np.ndarray, a_brake: np.ndarray) -> None:
+    def respect_limits(  # noqa: B027 (an optional hook: most motions need nothing)
+        self, q_min: np.ndarray, q_max: np.ndarray, a_brake: np.ndarray
+    ) -> None:
         """Fit the time law to the joint box the IK will enforce (position limits ``q_min``,
         ``q_max`` [rad, m], planned braking deceleration ``a_brake`` [rad/s², m/s²], all
         indexed like ``q``). Called once, before the motion starts; default: nothing to do."""
@@ -248,7 +251,19 @@ class CartesianMotion(Motion):
         self.kin = kin
         self.side = side
         self.path = path
+        self.elbow: AxisTask | None = None
+        #: Elbow angle [rad] along the path (None: the elbow is not commanded).
+        self.elbow_path: VectorPath | None = None
+        if elbow is not None and kin.has_elbow(side):
+            axis = elbow_axis(side)
+            start = axis_value(kin, axis)
+            goal = start + math.remainder(elbow - start, math.tau)
+            self.elbow_path = VectorPath(np.array([start]), np.array([goal]))
+            self.elbow = AxisTask(axis, start)
         v, a = path.limits(speed, accel)
+        if self.elbow_path is not None:  # the elbow swing is timed like the rotation
+            ve, ae = self.elbow_path.limits(np.array([speed[1]]), np.array([accel[1]]))
+            v, a = min(v, ve), min(a, ae)
         if path_limits is not None:  # what the joints allow along this path
             v, a = min(v, path_limits[0]), min(a, path_limits[1])
         if not math.isfinite(v):  # zero-length path
@@ -263,15 +278,8 @@ class CartesianMotion(Motion):
         self.hold = (
             ControlPointTask(other, kin.pose(other)) if hold_other and other in kin.arms else None
         )
-        self.elbow: AxisTask | None = None
-        self._elbow_path: VectorPath | None = None
-        if elbow is not None and kin.has_elbow(side):
-            axis = elbow_axis(side)
-            start = axis_value(kin, axis)
-            goal = start + math.remainder(elbow - start, math.tau)
-            self._elbow_path = VectorPath(np.array([start]), np.array([goal]))
-            self.elbow = AxisTask(axis, start)
-            self.allowed[axis] = True
+        if self.elbow is not None:
+            self.allowed[self.elbow.axis] = True
 
     def setup(self) -> IKSetup:
         kin = self.kin
@@ -297,8 +305,8 @@ class CartesianMotion(Motion):
     def apply(self, s0: float, s1: float, dt: float) -> None:
         now = self.path.at(s0)
         self.task.set_target(now, average_twist(now, self.path.at(s1), dt))
-        if self.elbow is not None and self._elbow_path is not None:
-            e0, e1 = float(self._elbow_path.at(s0)[0]), float(self._elbow_path.at(s1)[0])
+        if self.elbow is not None and self.elbow_path is not None:
+            e0, e1 = float(self.elbow_path.at(s0)[0]), float(self.elbow_path.at(s1)[0])
             self.elbow.set_target(e0, (e1 - e0) / dt)
 
 
@@ -445,8 +453,10 @@ class AxisPathMotion(Motion):
     def apply(self, s0: float, s1: float, dt: float) -> None:
         follow_vector(self.tasks, self.path, s0, s1, dt)
 
-    def advance(self) -> None:
-        super().advance()
+    def advance(self, dt: float | None = None) -> None:
+        super().advance(dt)
+        if dt is not None:
+            self.dt = dt  # the next segment's time law starts at the current period
         last = len(self.waypoints) - 2
         if self.profile.finished and not self.profile.stopped and self._segment < last:
             self._segment += 1

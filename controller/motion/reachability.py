@@ -24,10 +24,16 @@ import numpy as np
 import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
-from controller.model.redundant_axes import RedundantAxis, available_axes, axis_jacobian
+from controller.model.redundant_axes import (
+    RedundantAxis,
+    available_axes,
+    axis_jacobian,
+    axis_value,
+    elbow_axis,
+)
 from controller.motion.motions import IKSetup
-from controller.motion.paths import ArcPath, LinePath
-from controller.qp.limits import BRAKING_SHARE, AxisRows
+from controller.motion.paths import ArcPath, LinePath, VectorPath
+from controller.qp.limits import BRAKING_SHARE, HOLD_MIN_ELBOW_OFFSET, AxisRows
 from controller.qp.solver import ProxQPSolver
 from controller.qp.tasks import pose_error
 from controller.vocabulary import RightLeft
@@ -46,6 +52,9 @@ DAMPING = 1e-6
 MIN_SINGULAR = 0.04
 #: Rotation rows are scaled by this length [m] to compare with translation rows.
 ROTATION_SCALE = 0.3
+#: Weight of the elbow row [m/rad] (the pose rows weigh 1) and its accepted residual [rad].
+ELBOW_WEIGHT = 0.1
+ELBOW_TOL = math.radians(0.1)
 
 
 class ReachabilityChecker:
@@ -75,17 +84,30 @@ class ReachabilityChecker:
         path: LinePath | ArcPath,
         setup: IKSetup,
         hold: RightLeft | None = None,
+        elbow: VectorPath | None = None,
     ) -> str | None:
-        """None when every sample of ``path`` is reachable from ``live.q``; else why not."""
+        """None when every sample of ``path`` is reachable from ``live.q``; else why not.
+
+        ``elbow``: the elbow angle [rad] of ``side`` along the path (JARA CarPosWithElbow),
+        followed best-effort at every sample (the pose comes first), so the joint motion
+        recorded for :meth:`path_parameter_limits` includes the elbow swing."""
         q, held = self._start(live, setup, hold)
         samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
+        axis = elbow_axis(side) if elbow is not None and self.kin.has_elbow(side) else None
+        if axis is not None and elbow is not None:
+            swing = abs(float(elbow.delta[0]))
+            n = max(len(samples), math.ceil(swing / SAMPLE_ANGLE) + 1)
+            samples = [i / (n - 1) for i in range(n)]
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
         self.last_q = q
         self.path_s = [float(samples[0])]
         self.path_q = [q.copy()]
         for s in samples[1:]:
             target = path.at(s)
-            q, err = self._solve(q, side, target, setup.frozen, hold, held)
+            goal = None
+            if axis is not None and elbow is not None:
+                goal = (axis, float(elbow.at(s)[0]))
+            q, err = self._solve(q, side, target, setup.frozen, hold, held, goal)
             self.last_q = q
             self.path_s.append(float(s))
             self.path_q.append(q.copy())
@@ -189,8 +211,13 @@ class ReachabilityChecker:
         frozen: np.ndarray,
         hold: RightLeft | None,
         held: pin.SE3 | None,
+        elbow: tuple[RedundantAxis, float] | None = None,
     ) -> tuple[np.ndarray, str | None]:
+        """Position-level IK toward ``target`` (and the held pose); ``elbow``: an elbow
+        angle [rad] to approach as well, best-effort (retried without it when the pose
+        cannot be reached with it)."""
         kin = self.kin
+        start = q
         for _ in range(MAX_ITER):
             kin.update(q)
             jacs = [kin.jacobian(side)]
@@ -198,11 +225,16 @@ class ReachabilityChecker:
             if hold is not None and held is not None:
                 jacs.append(kin.jacobian(hold))
                 errs.append(pose_error(held, kin.pose(hold)))
-            err = np.concatenate(errs)
             pos = max(float(np.linalg.norm(e[:3])) for e in errs)
             ang = max(float(np.linalg.norm(e[3:])) for e in errs)
-            if pos < POSITION_TOL and ang < ANGLE_TOL:
+            swing = 0.0
+            if elbow is not None and kin.elbow_offset(elbow[0].side) > HOLD_MIN_ELBOW_OFFSET:
+                swing = math.remainder(elbow[1] - axis_value(kin, elbow[0]), math.tau)
+                jacs.append(ELBOW_WEIGHT * axis_jacobian(kin, elbow[0])[None, :])
+                errs.append(np.array([ELBOW_WEIGHT * swing]))
+            if pos < POSITION_TOL and ang < ANGLE_TOL and abs(swing) < ELBOW_TOL:
                 return q, None
+            err = np.concatenate(errs)
             jac = np.vstack(jacs)
             H = jac.T @ jac + DAMPING * np.eye(kin.nv)
             g = -jac.T @ err
@@ -218,6 +250,18 @@ class ReachabilityChecker:
             if float(np.abs(dq).max()) < 1e-9:
                 break  # stuck
             q = q + np.clip(dq, lb, ub)
+        if elbow is not None:
+            kin.update(q)
+            errs = [pose_error(target, kin.pose(side))]
+            if hold is not None and held is not None:
+                errs.append(pose_error(held, kin.pose(hold)))
+            if all(
+                np.linalg.norm(e[:3]) < POSITION_TOL and np.linalg.norm(e[3:]) < ANGLE_TOL
+                for e in errs
+            ):
+                return q, None  # the pose is reached; the elbow as near as it gets
+            # The pose first: this sample again without the elbow.
+            return self._solve(start, side, target, frozen, hold, held, None)
         return q, self._describe(q, pos, ang, frozen)
 
     def _describe(self, q: np.ndarray, pos: float, ang: float, frozen: np.ndarray) -> str:

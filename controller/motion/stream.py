@@ -110,7 +110,10 @@ class JointStreamMotion(Motion):
     def apply(self, s0: float, s1: float, dt: float) -> None:
         raise NotImplementedError("a stream has no path parameter: advance() drives it")
 
-    def advance(self) -> None:
+    def advance(self, dt: float | None = None) -> None:
+        if dt is not None and dt != self.dt:
+            self.dt = dt
+            self._otg.delta_time = dt
         if self._done:
             return
         self._age += self.dt

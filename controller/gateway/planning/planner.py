@@ -110,7 +110,8 @@ class Planner:
         with self.lock, self.view.at(snap, q0) as kin:
             motion = spec.build(kin, self.dt)
             hold = other_side(side) if spec.hold_other else None
-            reason = self.checker.check(kin, side, motion.path, motion.setup(), hold)  # type: ignore[attr-defined]
+            elbow = getattr(motion, "elbow_path", None)
+            reason = self.checker.check(kin, side, motion.path, motion.setup(), hold, elbow)  # type: ignore[attr-defined]
             q_end = self.checker.last_q.copy()
             limits = self.checker.path_parameter_limits()
         if reason is not None:
