@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from controller.model.alarms import AlarmCode
+from controller.model.redundant_axes import available_axes, axis_value
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import CoreState
 from controller.vocabulary import ReturnCode as Code
@@ -251,3 +252,90 @@ def test_a_starved_loop_keeps_motion_time_and_warns():
         assert d.ctx.snapshot().core_state == CoreState.READY
     finally:
         d.close()
+
+
+# ------------------------------------------------------- 16.4 CP-hold: untargeted axes
+def axis_values(d: TestDaemon) -> dict[str, float]:
+    """Every redundant axis of the (idle) robot [m, rad], read from the loop's kinematics."""
+    kin = d.controller.core.kin
+    return {a.value: axis_value(kin, a) for a in available_axes(kin)}
+
+
+def cp_hold_rel(d: TestDaemon, **rel: float) -> str:
+    speed = pb.RedundantSpeed(
+        elbow=20, lumbar_rx=10, lumbar_ry=10, lumbar_rz=10,
+        vehicle_translation=100, vehicle_rotation=10,
+    )  # fmt: skip
+    accel = pb.RedundantAccel(
+        elbow=40, lumbar_rx=20, lumbar_ry=20, lumbar_rz=20,
+        vehicle_translation=200, vehicle_rotation=20,
+    )  # fmt: skip
+    r = d.spec_a.MoveCPHoldRel(
+        pb.MoveCPHoldRelRequest(
+            type=pb.RIGHT, rel_pos=pb.RedundantPos(**rel), speed=speed, accel=accel
+        )
+    )
+    assert code(r) == OK, r.return_id.comment
+    assert d.wait_idle()
+    return r.return_id.comment
+
+
+@pytest.mark.parametrize(
+    ("robot", "rel"),
+    [
+        ("smartpal", {"vehicle_x": -100.0, "vehicle_y": 80.0, "vehicle_theta": 10.0}),
+        ("seednoid", {"lumbar_rz": 10.0}),
+        ("seednoid", {"lumbar_rx": 0.8}),
+    ],
+)
+def test_cp_hold_moves_only_the_commanded_axes(request, robot, rel):
+    """Issue 16.4: a vehicle-only CP-hold changed the elbows by 2.6 and 5.2 deg; SEED-Noid
+    lumbarRz +10 deg moved lumbarRx by -1.0 and lumbarRy by +0.9 deg."""
+    d = request.getfixturevalue("sp" if robot == "smartpal" else "noid")
+    names = {"vehicle_x": "vehicleX", "vehicle_y": "vehicleY", "vehicle_theta": "vehicleTheta"}
+    names |= {"lumbar_rx": "lumbarRx", "lumbar_ry": "lumbarRy", "lumbar_rz": "lumbarRz"}
+    before = axis_values(d)
+    comment = cp_hold_rel(d, **rel)
+    after = axis_values(d)
+    commanded = {names[k] for k in rel}
+    for axis, value in before.items():
+        if axis not in commanded:
+            assert after[axis] == pytest.approx(value, abs=1e-4), (axis, comment)
+
+
+# ------------------------------------------------------ 16.3 PTP with the other arm held
+def test_ptp_cartesian_with_the_other_arm_held_keeps_that_hand(sp):
+    """Issue 16.3: movePTPCartesianRel(RIGHT, z -150 mm, 3 s, isHoldOtherArm) with elbow
+    and waist selected moved the left hand by up to 1.29 mm: the held arm's joints were
+    also tracked along a straight joint-space line, against the hold."""
+    d = sp
+    mask = pb.RedundantAxesMask(elbow=True, lumbar_ry=True)
+    d.spec_a.SelectRedundantAxes(
+        pb.SelectRedundantAxesRequest(redundancy=mask, limit=pb.RedundantLimit())
+    )
+
+    def left() -> np.ndarray:
+        r = d.spec_a.GetFeedbackPosCartesian(pb.GetFeedbackPosCartesianRequest(type=pb.LEFT))
+        return np.array(r.pos.car_pos.m)[3::4]
+
+    try:
+        start = left()
+        m = np.hstack([np.eye(3), [[0.0], [0.0], [-150.0]]])
+        r = d.spec_a.MovePTPCartesianRel(
+            pb.MovePTPCartesianRelRequest(
+                type=pb.RIGHT,
+                rel_hg_mat=pb.HgMatrix(m=m.ravel().tolist()),
+                time=3.0,
+                is_hold_other_arm=True,
+            )
+        )
+        assert code(r) == OK, r.return_id.comment
+        samples = watch(d, left)
+        worst = float(np.linalg.norm(samples - start, axis=1).max())
+        assert worst < 0.01, f"the held hand moved {worst:.3f} mm"
+    finally:
+        d.spec_a.SelectRedundantAxes(
+            pb.SelectRedundantAxesRequest(
+                redundancy=pb.RedundantAxesMask(), limit=pb.RedundantLimit()
+            )
+        )

@@ -33,7 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
-from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
 from controller.motion.paths import ArcPath, LinePath, VectorPath
 from controller.motion.profile import PathProfile, ProfileState
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
@@ -133,7 +133,9 @@ class JointMotion(Motion):
     """Joint-space straight line for ``joints`` (indices in q) to ``target`` (same order).
 
     ``speed``/``accel`` per joint [rad/s, m/s, …]; ``duration`` [s] forces the time (Spec A
-    ``time``). ``hold`` arms keep their control points fixed (their joints join the IK).
+    ``time``). ``hold`` arms keep their control points fixed: their joints follow the hold
+    task alone (given among ``joints`` or not, they get no joint-space target: a straight
+    joint-space line of the held arm would not keep its hand in place while the body moves).
     """
 
     def __init__(
@@ -150,7 +152,14 @@ class JointMotion(Motion):
         self.kin = kin
         self.dt = dt
         self.duration = duration
-        self.joints = np.asarray(joints, dtype=int)
+        joints = np.asarray(joints, dtype=int)
+        target = np.asarray(target, dtype=float)
+        speed, accel = np.asarray(speed, dtype=float), np.asarray(accel, dtype=float)
+        if hold:
+            held = np.concatenate([arm_joints(kin, side) for side in hold])
+            keep = ~np.isin(joints, held)
+            joints, target, speed, accel = joints[keep], target[keep], speed[keep], accel[keep]
+        self.joints = joints
         self.path = VectorPath(kin.q[self.joints], target)
         v, a = self.path.limits(speed, accel)
         if self.path.is_empty:
@@ -474,8 +483,12 @@ class CPHoldMotion(AxisPathMotion):
     ``speed``/``accel`` per axis in ``targets`` order (vehicleX/Y: the translation limits).
     Only the axes in ``targets`` move: the joints of arms neither held nor carrying a moved
     elbow are frozen, and so are the waist and the vehicle when none of their axes is a
-    target. On a differential base the vehicle turns, drives and turns (vehicleTheta is
-    added, held at its value, when the targets do not name it).
+    target; every other redundant axis (the elbow of a held arm, the waist axes without a
+    target) is held at its value by the IK's axis rows. ``free_elbows``: the elbows of the
+    held arms are left free instead (when holding them would keep a hand from following
+    the body; the service says so in its answer). On a differential base the vehicle turns,
+    drives and turns (vehicleTheta is added, held at its value, when the targets do not
+    name it).
     """
 
     def __init__(
@@ -486,7 +499,9 @@ class CPHoldMotion(AxisPathMotion):
         targets: dict[RedundantAxis, float],
         speed: np.ndarray,
         accel: np.ndarray,
+        free_elbows: bool = False,
     ):
+        self.free_elbows = free_elbows
         targets = dict(targets)
         spd, acc = [float(x) for x in speed], [float(x) for x in accel]
         if is_differential(kin) and set(VEHICLE_AXES[:2]) & set(targets):
@@ -519,7 +534,11 @@ class CPHoldMotion(AxisPathMotion):
             frozen[kin.unit_indices(UnitType.LUMBER)] = True
         if not any(a.is_vehicle for a in self.axes):
             frozen[kin.unit_indices(UnitType.VEHICLE)] = True
-        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen)
+        # Axes without a target stay put (axes of frozen units are skipped by the rows).
+        allowed = {a: a in self.axes for a in available_axes(kin)}
+        if self.free_elbows:
+            allowed.update({a: True for a in allowed if a.is_elbow})
+        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen, allowed)
 
 
 class VehicleMotion(AxisPathMotion):

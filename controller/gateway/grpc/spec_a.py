@@ -463,10 +463,23 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
             q0, held, targets, np.array(speeds), np.array(accels), label="CP-hold move"
         )
         reason = planner.dry_run(snap, q0, spec)
+        comment = None
+        held_elbows = [elbow_axis(s) for s in held if elbow_axis(s) in kin_axes]
+        if reason is not None and held_elbows and not any(a in targets for a in held_elbows):
+            # Axes without a target stay put, unless a held hand cannot follow the body
+            # with its elbow held: then the elbow moves, and the answer says so.
+            spec.free_elbows = True
+            if planner.dry_run(snap, q0, spec) is None:
+                names = ", ".join(a.value for a in held_elbows)
+                comment = (
+                    f"OK ({names} left free to keep the held hand(s): with the elbow held, "
+                    f"{reason})"
+                )
+                reason = None
         if reason is not None:
             raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
         self.ctx.call("start", sv_on_code=False, spec=spec)
-        return None
+        return None if comment is None else {"comment": comment}
 
     @rpc(pb.MoveCPHoldAbsResponse)
     def MoveCPHoldAbs(self, request):
