@@ -1,7 +1,8 @@
 """When a motion has arrived: every task of the IK within its tolerance of its target.
 
 The motion core ends a motion only once its time law has ended, the robot is at rest and
-:func:`off_target` finds nothing off (see :meth:`controller.control.core.MotionCore._finish_motion`).
+:func:`off_target` finds nothing off (see ``MotionCore._finish_motion`` in
+:mod:`controller.control.core`).
 Tolerances are well above what the closed loop reaches on perfect drives (~1e-7) and well
 below what a client can see; regularisation (level-0 posture) tasks do not count.
 """
