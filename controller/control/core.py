@@ -34,10 +34,13 @@ from controller.qp.solver import DEFAULT_SOLVER
 from controller.vocabulary import CoreState, RightLeft
 from hal.interface import HardwareFault, HardwareInterface, HardwareState, JointCommand
 
-#: A finished motion is at rest when every commanded and every measured speed is below
-#: this [rad/s, m/s] (0.11 deg/s; quantised drive feedback keeps the commands dithering
-#: around 1e-4 on real and emulated drives).
+#: A finished motion is at rest when every commanded speed is below SETTLED_SPEED [rad/s,
+#: m/s] and every measured one below STILL_SPEED; or, SETTLE_TIME [s] after its time law,
+#: when both are below STILL_SPEED (0.11 deg/s: quantised drive feedback keeps the commands
+#: dithering around 1e-4 on real and emulated drives).
+SETTLED_SPEED = 1e-5
 STILL_SPEED = 2e-3
+SETTLE_TIME = 0.5
 #: A motion that has not arrived and come to rest this long [s] after its time law ended is
 #: ended anyway, with a warning alarm (MOTION_INCOMPLETE) saying what is off.
 ARRIVAL_TIMEOUT = 2.0
@@ -372,7 +375,7 @@ class MotionCore:
     def _finish_motion(self) -> None:
         """A motion ends once its time law has ended *and* the robot is on the final targets
         (every task within its arrival tolerance, see :func:`controller.motion.arrival.
-        off_target`) *and* at rest (commanded and measured speeds below STILL_SPEED): Ready
+        off_target`) *and* at rest (see SETTLED_SPEED and STILL_SPEED): Ready
         means still. One that has not got there ARRIVAL_TIMEOUT after
         its time law is ended anyway (held where it is) with a MOTION_INCOMPLETE warning."""
         motion = self.motion
@@ -388,9 +391,9 @@ class MotionCore:
             self._settling = 0.0
             return
         self._settling += self.step
-        rest = float(np.abs(self.v_cmd).max(initial=0.0)) < STILL_SPEED and (
-            float(np.abs(self.v_measured).max(initial=0.0)) < STILL_SPEED
-        )
+        commanded = float(np.abs(self.v_cmd).max(initial=0.0))
+        calm = SETTLED_SPEED if self._settling < SETTLE_TIME else STILL_SPEED
+        rest = commanded < calm and (float(np.abs(self.v_measured).max(initial=0.0)) < STILL_SPEED)
         off = None if not rest else off_target(self.kin, self.ik.tasks)
         if rest and off is None:
             self._end_motion()
