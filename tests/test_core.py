@@ -175,3 +175,38 @@ def test_commands_from_another_thread_land_between_cycles():
         stop.set()
         thread.join()
     assert core.state == CoreState.READY
+
+
+def test_a_motion_ends_only_on_target_and_at_rest_or_with_a_warning():
+    """Issues 15.2/17.4: Ready means still and on target. An elbow target the joint limits
+    forbid (SmartPal V: -130 deg from home) ends ARRIVAL_TIMEOUT after the time law with a
+    MOTION_INCOMPLETE warning naming what is off; the state stays usable (no fault)."""
+    import math
+
+    from controller.control.core import ARRIVAL_TIMEOUT
+    from controller.model.alarms import AlarmType
+    from controller.motion.motions import CartesianMotion
+    from controller.motion.paths import LinePath
+
+    core = make_core("smartpal5")
+    side = RightLeft.RIGHT
+    pose = core.kin.pose(side)
+    elbow = core.kin.elbow_angle(side) - math.radians(130)
+    motion = CartesianMotion(
+        core.kin, DT, side, LinePath(pose, pose), (0.1, 1.0), (0.5, 2.0), {}, elbow=elbow
+    )
+    core.start(motion)
+    cycles = 0
+    while core.motion is not None and not motion.finished:
+        core.cycle()
+        cycles += 1
+    after = 0
+    while core.motion is not None:
+        core.cycle()
+        after += 1
+    assert after * DT >= ARRIVAL_TIMEOUT - DT
+    assert core.state == CoreState.READY
+    (alarm,) = core.alarms
+    assert alarm.code == AlarmCode.MOTION_INCOMPLETE and alarm.type == AlarmType.WARNING
+    assert "rightElbow" in alarm.description and "deg from its target" in alarm.description
+    np.testing.assert_allclose(core.kin.pose(side).translation, pose.translation, atol=2e-4)

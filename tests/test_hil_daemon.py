@@ -60,7 +60,9 @@ def wait_state(d: TestDaemon, state: int, timeout: float = 20.0) -> None:
 
 
 def alarms(d: TestDaemon) -> list[Any]:
-    return list(ok(d.spec_a.GetActiveAlarm(pb.GetActiveAlarmRequest())).alarms)
+    """Active alarms, less the LOOP_OVERRUN warning a starved test machine may raise."""
+    listed = ok(d.spec_a.GetActiveAlarm(pb.GetActiveAlarmRequest())).alarms
+    return [a for a in listed if not (a.type == pb.WARNING and a.code == 0x411)]
 
 
 def ready(d: TestDaemon) -> None:

@@ -117,3 +117,53 @@ def test_a_stream_of_other_joints_does_not_extend(core):
     assert not other.extends(motion)
     with pytest.raises(NotImplementedError):
         motion.apply(0.0, 0.1, core.dt)
+
+
+#: A Ruckig 0.19 input that fails in its synchronisation step: the joints 0-6 are within
+#: round-off of their set-points, with round-off speeds and accelerations left (joints a
+#: Cartesian stream of tiny steps barely moves). Found by fuzzing the stream's inputs.
+ROUND_OFF_STATE = {
+    "current_position": [
+        -0.6306246135879521, 0.4616886808995506, -0.0288262676528257, 0.8850130987572284,
+        -0.7778839432004638, -0.508972401977094, 0.047847500599355275,
+    ],
+    "current_velocity": [
+        -2.4497971412564196e-17, 5.441650370810246e-16, -3.142922081385817e-16,
+        4.046721839176806e-14, 9.035042327724329e-14, -6.949445862388076e-16,
+        1.161999233481349e-16,
+    ],
+    "current_acceleration": [
+        -1.5476161861051545e-15, 1.0107478342931312e-13, -9.57682103718483e-14,
+        -4.336503388372304e-12, -2.2820869932879074e-12, 1.6104921710481427e-14,
+        7.439782762097321e-15,
+    ],
+    "target_position": [
+        -0.6306246135879521, 0.4616886808995512, -0.028826267652824287, 0.8850130987572381,
+        -0.7778839432004352, -0.5089724019770945, 0.04784750059935524,
+    ],
+}  # fmt: skip
+
+
+def test_round_off_left_on_set_points_never_fails_the_stream():
+    """Issue 15.5: 'Ruckig failed on the joint stream' (alarm 0x412) at the start of
+    Cartesian streams of ~0.04 mm steps: Ruckig's synchronisation fails on joints left
+    within round-off of their set-points with round-off speed and acceleration."""
+    core = make_core("seednoid", dt=0.002)
+    joints = core.kin.unit_indices(UnitType.RIGHT_ARM)
+    n = len(joints)
+    motion = JointStreamMotion(
+        core.kin, 0.002, joints, core.q[joints], np.full(n, 1.047), np.full(n, 2.094), PERIOD
+    )
+    for name, value in ROUND_OFF_STATE.items():
+        setattr(motion._in, name, value)
+    motion._in.target_velocity = [0.0] * n
+    motion._in.target_acceleration = [0.0] * n
+    motion._settling = True
+    for _ in range(200):
+        motion.advance()
+        if motion.finished:
+            break
+    assert motion.finished
+    np.testing.assert_allclose(
+        motion.track.reference[joints], ROUND_OFF_STATE["target_position"], atol=1e-12
+    )

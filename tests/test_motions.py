@@ -127,6 +127,22 @@ def test_ptp_axes_start_and_arrive_together(robot_id: str):
     assert cycles * DT > 0.2
 
 
+@pytest.mark.parametrize("joint", [0, 2, 4])
+def test_ptp_at_full_speed_never_passes_a_target_near_its_limit(joint: int):
+    """Issue 15.4: a target inside the braking distance of a limit (the IK brakes at half
+    the acceleration there) made the joint lag, then overshoot by up to 1.6 deg."""
+    core = make_core("seednoid")
+    box = core.ik.box
+    j = core.kin.unit_indices(UnitType.RIGHT_ARM)[joint : joint + 1]
+    far, near = box.q_min[j] + 0.3, box.q_max[j] - 0.05
+    run_motion(core, JointMotion(core.kin, DT, j, far, box.v_max[j], box.a_max[j]))
+    peak = []
+    motion = JointMotion(core.kin, DT, j, near, box.v_max[j], box.a_max[j])
+    run_motion(core, motion, lambda c: peak.append(float(c.q[j][0])))
+    assert max(peak) <= near[0] + 1e-6
+    assert motion.profile_limits[1] < float(box.a_max[j][0] / (near - far)[0])
+
+
 def test_ptp_with_a_duration_takes_that_long():
     core = make_core("pa10")
     joints = core.kin.unit_indices(UnitType.RIGHT_ARM)

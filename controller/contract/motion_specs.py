@@ -129,9 +129,13 @@ class CPHoldSpec(MotionSpec):
     targets: dict[RedundantAxis, float]
     speed: np.ndarray  #: per target, in ``targets`` order
     accel: np.ndarray
+    #: Let the held arms' elbows move (else every axis without a target is held).
+    free_elbows: bool = False
 
     def build(self, kin: Kinematics, dt: float) -> Motion:
-        return CPHoldMotion(kin, dt, self.held, self.targets, self.speed, self.accel)
+        return CPHoldMotion(
+            kin, dt, self.held, self.targets, self.speed, self.accel, self.free_elbows
+        )
 
 
 @dataclass

@@ -25,6 +25,7 @@ from controller.errors import StateError
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
+from controller.motion.arrival import off_target
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
@@ -33,10 +34,19 @@ from controller.qp.solver import DEFAULT_SOLVER
 from controller.vocabulary import CoreState, RightLeft
 from hal.interface import HardwareFault, HardwareInterface, HardwareState, JointCommand
 
-#: A finished motion counts as arrived when every commanded speed is below this [rad/s, m/s].
+#: A finished motion is at rest when every commanded speed is below SETTLED_SPEED [rad/s,
+#: m/s] and every measured one below STILL_SPEED; or, SETTLE_TIME [s] after its time law,
+#: when both are below STILL_SPEED (0.11 deg/s: quantised drive feedback keeps the commands
+#: dithering around 1e-4 on real and emulated drives).
 SETTLED_SPEED = 1e-5
-#: ... or this long [s] after its time law ended, whichever comes first.
+STILL_SPEED = 2e-3
 SETTLE_TIME = 0.5
+#: A motion that has not arrived and come to rest this long [s] after its time law ended is
+#: ended anyway, with a warning alarm (MOTION_INCOMPLETE) saying what is off.
+ARRIVAL_TIMEOUT = 2.0
+#: A cycle advances motions by the measured time since the last one, at most this many
+#: nominal periods (longer gaps stretch the motion rather than jump it).
+MAX_STEP_PERIODS = 5
 
 
 class CoreError(StateError):
@@ -53,10 +63,10 @@ class GripperMotion:
         v, a = self.path.limits(speed, accel)
         self.profile = PathProfile(dt, v, a) if not self.path.is_empty else None
 
-    def advance(self) -> np.ndarray:
+    def advance(self, dt: float | None = None) -> np.ndarray:
         if self.profile is None:
             return self.path.end
-        self.profile.step()
+        self.profile.step(dt)
         return self.path.at(self.profile.s)
 
     @property
@@ -100,7 +110,12 @@ class MotionCore:
         self.measured_hw = np.zeros(len(names))
         self._gripper_motion: dict[RightLeft, GripperMotion] = {}
         self.cycles = 0
-        self._settling = 0
+        #: Time [s] since the current motion's time law ended.
+        self._settling = 0.0
+        #: Length [s] of the current cycle (the measured period, see :meth:`cycle`).
+        self.step = dt
+        #: Last measured joint speeds [rad/s, m/s] (kinematic joints).
+        self.v_measured = np.zeros(self.kin.nv)
         self._reported_faults: set[HardwareFault] = set()
         self._hold()
 
@@ -162,6 +177,8 @@ class MotionCore:
         with self._lock:
             if self.state != CoreState.READY:
                 raise CoreError(f"cannot start a motion while {self.state.text}")
+            box = self.ik.box
+            motion.respect_limits(box.q_min, box.q_max, box.a_brake)
             self._apply(motion.setup())
             self.motion = motion
             self.state = CoreState.BUSY
@@ -193,6 +210,8 @@ class MotionCore:
             ):
                 return
             if self.motion is not None:
+                if self.state == CoreState.PAUSED:  # held while paused: the tasks again
+                    self._apply(self.motion.setup())
                 self.motion.resume()
                 self.state = CoreState.BUSY
             else:
@@ -246,6 +265,12 @@ class MotionCore:
             self.alarms.append(Alarm(int(code), AlarmType.FAULT, description, module))
             self._enter_alarm()
 
+    def warn(self, code: AlarmCode, module: str, description: str) -> None:
+        """Record a warning alarm (motion goes on) unless one with ``code`` is active."""
+        with self._lock:
+            if not any(a.code == int(code) for a in self.alarms):
+                self.alarms.append(Alarm(int(code), AlarmType.WARNING, description, module))
+
     def _enter_alarm(self) -> None:
         self.motion = None
         self._gripper_motion.clear()
@@ -274,15 +299,33 @@ class MotionCore:
         return running or bool(self._gripper_motion)
 
     # --------------------------------------------------------------------- cycle
-    def cycle(self) -> None:
-        """One control cycle. Never raises for motion problems: they become alarms."""
+    def _use_step(self, elapsed: float | None) -> float:
+        """The cycle's length [s]: ``elapsed`` (the measured period) within
+        [dt, MAX_STEP_PERIODS·dt], or dt. The time law, the IK's limits and the integration
+        of the commands all use it, so motion time follows the wall clock when the loop
+        runs late."""
+        step = self.dt
+        if elapsed is not None and elapsed > self.dt:
+            step = min(elapsed, MAX_STEP_PERIODS * self.dt)
+        if step != self.step:
+            self.step = step
+            self.ik.dt = step
+            self.ik.box.dt = step
+            self.ik.rows.dt = step
+        return step
+
+    def cycle(self, elapsed: float | None = None) -> None:
+        """One control cycle; ``elapsed`` [s]: time since the last one (None: the nominal
+        period). Never raises for motion problems: they become alarms."""
         with self._lock:
             self.cycles += 1
+            step = self._use_step(elapsed)
             if self.hw.state in (HardwareState.UNCONFIGURED, HardwareState.FINALIZED):
                 return  # unpowered: nothing to read or command
             measured = self.hw.read()
             self.measured_hw = measured.position
             self.q = measured.position[self._hw_index].copy()
+            self.v_measured = measured.velocity[self._hw_index]
             self.kin.update(self.q)
             faults = self.hw.faults()
             # A fault raises its alarm once: after clearAlarms a fault that persists does not
@@ -301,7 +344,7 @@ class MotionCore:
                 return
             if self.motion is not None:
                 try:
-                    self.motion.advance()
+                    self.motion.advance(step)
                 except Exception as exc:  # never let a motion take the loop down
                     self.raise_alarm(AlarmCode.TRAJECTORY_FAILURE, "motion", str(exc))
                     self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
@@ -315,13 +358,13 @@ class MotionCore:
                 self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
                 return
             self.v_cmd = result.velocity
-            self.q_cmd = self.q_cmd + self.v_cmd * self.dt
+            self.q_cmd = self.q_cmd + self.v_cmd * step
             self._hw_cmd[self._hw_index] = self.q_cmd
             self._hw_vel[self._hw_index] = self.v_cmd
             for side, gm in list(self._gripper_motion.items()):
                 idx = self._grippers[side]
-                new = gm.advance()
-                self._hw_vel[idx] = (new - self._hw_cmd[idx]) / self.dt
+                new = gm.advance(step)
+                self._hw_vel[idx] = (new - self._hw_cmd[idx]) / step
                 self._hw_cmd[idx] = new
                 if gm.finished:
                     self._hw_vel[idx] = 0.0
@@ -330,20 +373,47 @@ class MotionCore:
             self._finish_motion()
 
     def _finish_motion(self) -> None:
-        """A motion ends once its time law has ended *and* the robot has settled on the final
-        targets (commanded speeds below SETTLED_SPEED), or SETTLE_TIME after the time law."""
+        """A motion ends once its time law has ended *and* the robot is on the final targets
+        (every task within its arrival tolerance, see :func:`controller.motion.arrival.
+        off_target`) *and* at rest (see SETTLED_SPEED and STILL_SPEED): Ready
+        means still. One that has not got there ARRIVAL_TIMEOUT after
+        its time law is ended anyway (held where it is) with a MOTION_INCOMPLETE warning."""
         motion = self.motion
         if motion is None:
             return
         if motion.paused and self.state == CoreState.BUSY:
+            # Paused on the path: hold every joint (the motion's tasks would keep the
+            # posture and null-space terms working, and the joints creeping); resume()
+            # brings the motion's tasks back.
             self.state = CoreState.PAUSED
-        if not motion.finished:
-            self._settling = 0
-            return
-        self._settling += 1
-        settled = float(np.abs(self.v_cmd).max(initial=0.0)) < SETTLED_SPEED
-        if settled or self._settling * self.dt >= SETTLE_TIME:
-            self.motion = None
             self._hold()
-            if self.state in (CoreState.BUSY, CoreState.PAUSED):
-                self.state = CoreState.READY
+        if not motion.finished:
+            self._settling = 0.0
+            return
+        self._settling += self.step
+        commanded = float(np.abs(self.v_cmd).max(initial=0.0))
+        calm = SETTLED_SPEED if self._settling < SETTLE_TIME else STILL_SPEED
+        rest = commanded < calm and (float(np.abs(self.v_measured).max(initial=0.0)) < STILL_SPEED)
+        off = None if not rest else off_target(self.kin, self.ik.tasks)
+        if rest and off is None:
+            self._end_motion()
+        elif self._settling >= ARRIVAL_TIMEOUT:
+            why = off if rest else "still moving"
+            if not rest:
+                why = off_target(self.kin, self.ik.tasks) or why
+            self.alarms.append(
+                Alarm(
+                    int(AlarmCode.MOTION_INCOMPLETE),
+                    AlarmType.WARNING,
+                    f"motion ended {ARRIVAL_TIMEOUT:g} s after its time law without arriving: "
+                    f"{why}",
+                    "motion",
+                )
+            )
+            self._end_motion()
+
+    def _end_motion(self) -> None:
+        self.motion = None
+        self._hold()
+        if self.state in (CoreState.BUSY, CoreState.PAUSED):
+            self.state = CoreState.READY

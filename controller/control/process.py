@@ -34,6 +34,7 @@ from controller.control.core import MotionCore
 from controller.control.events import LoopEvents
 from controller.control.loop import FixedRateLoop
 from controller.control.motion_queue import MotionQueue
+from controller.control.overruns import OverrunWatch
 from controller.control.publisher import SnapshotPublisher
 from controller.control.soft_limits import CartesianSoftLimits
 from controller.errors import ImotionError, Refused
@@ -79,6 +80,9 @@ class Controller(Commands):
         self.loop = FixedRateLoop(
             rate_hz, self._step, realtime=False, stats_capacity=max(1, round(rate_hz))
         )
+        self.overruns = OverrunWatch(self.loop, self.core)
+        #: Deadline time [s] of the last cycle (the loop's ``t``), for the measured period.
+        self._last_t: float | None = None
         self.queue = MotionQueue(queue_depth)
         self.soft_limits = CartesianSoftLimits(self.core)
         self.urgent: queue.SimpleQueue[Request] = queue.SimpleQueue()
@@ -116,7 +120,10 @@ class Controller(Commands):
                         break
                     self._execute(request)
                     executed.append(request)
-            self.core.cycle()
+            elapsed = None if self._last_t is None else t - self._last_t
+            self._last_t = t
+            self.core.cycle(elapsed)
+            self.overruns.observe(t)
             self._after_cycle()
             self.publish()
             if self.blackbox is not None:

@@ -39,6 +39,7 @@ class AlarmCode(enum.IntEnum):
     QP_FAILURE = 0x410  #: the whole-body QP was infeasible or not solved
     LOOP_OVERRUN = 0x411  #: control cycles missed their deadline
     TRAJECTORY_FAILURE = 0x412  #: the time law could not be computed
+    MOTION_INCOMPLETE = 0x413  #: (warning) a motion ended off its target or not at rest
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
-from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
 from controller.motion.paths import ArcPath, LinePath, VectorPath
 from controller.motion.profile import PathProfile, ProfileState
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
@@ -76,10 +76,11 @@ class Motion(abc.ABC):
     def apply(self, s0: float, s1: float, dt: float) -> None:
         """Targets at path parameter ``s0`` (now), feed-forward toward ``s1`` (in ``dt``)."""
 
-    def advance(self) -> None:
-        """One cycle: step the time law, move the targets."""
+    def advance(self, dt: float | None = None) -> None:
+        """One cycle of ``dt`` [s] (default: the nominal period): step the time law, move
+        the targets."""
         s0 = self.profile.s
-        self.profile.step()
+        self.profile.step(dt)
         self.apply(s0, self.profile.s, self.profile.dt)
 
     @property
@@ -89,6 +90,13 @@ class Motion(abc.ABC):
     @property
     def paused(self) -> bool:
         return self.profile.state == ProfileState.PAUSED
+
+    def respect_limits(  # noqa: B027 (an optional hook: most motions need nothing)
+        self, q_min: np.ndarray, q_max: np.ndarray, a_brake: np.ndarray
+    ) -> None:
+        """Fit the time law to the joint box the IK will enforce (position limits ``q_min``,
+        ``q_max`` [rad, m], planned braking deceleration ``a_brake`` [rad/s², m/s²], all
+        indexed like ``q``). Called once, before the motion starts; default: nothing to do."""
 
     def stop(self) -> None:
         self.profile.stop()
@@ -125,7 +133,9 @@ class JointMotion(Motion):
     """Joint-space straight line for ``joints`` (indices in q) to ``target`` (same order).
 
     ``speed``/``accel`` per joint [rad/s, m/s, …]; ``duration`` [s] forces the time (Spec A
-    ``time``). ``hold`` arms keep their control points fixed (their joints join the IK).
+    ``time``). ``hold`` arms keep their control points fixed: their joints follow the hold
+    task alone (given among ``joints`` or not, they get no joint-space target: a straight
+    joint-space line of the held arm would not keep its hand in place while the body moves).
     """
 
     def __init__(
@@ -140,14 +150,39 @@ class JointMotion(Motion):
         hold: tuple[RightLeft, ...] = (),
     ):
         self.kin = kin
-        self.joints = np.asarray(joints, dtype=int)
+        self.dt = dt
+        self.duration = duration
+        joints = np.asarray(joints, dtype=int)
+        target = np.asarray(target, dtype=float)
+        speed, accel = np.asarray(speed, dtype=float), np.asarray(accel, dtype=float)
+        if hold:
+            held = np.concatenate([arm_joints(kin, side) for side in hold])
+            keep = ~np.isin(joints, held)
+            joints, target, speed, accel = joints[keep], target[keep], speed[keep], accel[keep]
+        self.joints = joints
         self.path = VectorPath(kin.q[self.joints], target)
         v, a = self.path.limits(speed, accel)
         if self.path.is_empty:
             v, a = 1.0, 1.0
+        #: Limits of the path parameter [1/s, 1/s²].
+        self.profile_limits = (v, a)
         self.profile = PathProfile(dt, v, a, duration)
         self.track = PostureTask(kin.q.copy(), self.joints, gain=20.0, weight=1.0, level=1)
         self.hold = [ControlPointTask(side, kin.pose(side)) for side in hold]
+
+    def respect_limits(self, q_min: np.ndarray, q_max: np.ndarray, a_brake: np.ndarray) -> None:
+        """Lower the path acceleration where a joint's target lies closer to its limit than
+        its braking distance (see :func:`braking_safe_accel`): the IK brakes such a joint at
+        ``a_brake`` toward the limit, so a time law planned at the full acceleration would
+        leave it behind, and the feedback catching up would carry it past the target."""
+        if self.path.is_empty or self.profile.s > 0.0:
+            return
+        v, a = self.profile_limits
+        j = self.joints
+        fitted = braking_safe_accel(self.path, v, a, q_min[j], q_max[j], a_brake[j])
+        if fitted < a:
+            self.profile_limits = (v, fitted)
+            self.profile = PathProfile(self.dt, v, fitted, self.duration)
 
     def setup(self) -> IKSetup:
         frozen = np.ones(self.kin.nv, dtype=bool)
@@ -160,6 +195,40 @@ class JointMotion(Motion):
         now = self.path.at(s0)
         self.track.reference[self.joints] = now
         self.track.rate = (self.path.at(s1) - now) / dt
+
+
+#: Share of the planned braking deceleration a joint-space time law may use when it ends
+#: within braking distance of a limit (room for the discrete braking bound and the jerk
+#: ramps).
+BRAKING_FIT = 0.9
+
+
+def braking_safe_accel(
+    path: VectorPath,
+    v: float,
+    a: float,
+    q_min: np.ndarray,
+    q_max: np.ndarray,
+    a_brake: np.ndarray,
+) -> float:
+    """Largest path acceleration ≤ ``a`` [1/s²] (path rate ``v`` [1/s]) whose final
+    deceleration never asks a joint to be faster than its braking bound toward the limit
+    beyond its target: with margin ``m`` from target to limit, peak joint speed ``w`` and
+    braking deceleration ``b``, a joint decelerating at ``α`` from ``w`` needs
+    ``α·d ≤ b·(d + m)`` for every remaining distance ``d ≤ w²/(2α)``, i.e.
+    ``α ≤ w²·b / (w² − 2·b·m)`` when ``w² > 2·b·m`` (no bound otherwise)."""
+    delta = path.delta
+    for i, d in enumerate(delta):
+        extent = abs(float(d))
+        if extent < 1e-12:
+            continue
+        margin = float(q_max[i] - path.end[i]) if d > 0 else float(path.end[i] - q_min[i])
+        margin = max(margin, 0.0)
+        b = BRAKING_FIT * float(a_brake[i])
+        w2 = (v * extent) ** 2
+        if w2 > 2.0 * b * margin:
+            a = min(a, w2 * b / (w2 - 2.0 * b * margin) / extent)
+    return a
 
 
 class CartesianMotion(Motion):
@@ -191,7 +260,19 @@ class CartesianMotion(Motion):
         self.kin = kin
         self.side = side
         self.path = path
+        self.elbow: AxisTask | None = None
+        #: Elbow angle [rad] along the path (None: the elbow is not commanded).
+        self.elbow_path: VectorPath | None = None
+        if elbow is not None and kin.has_elbow(side):
+            axis = elbow_axis(side)
+            start = axis_value(kin, axis)
+            goal = start + math.remainder(elbow - start, math.tau)
+            self.elbow_path = VectorPath(np.array([start]), np.array([goal]))
+            self.elbow = AxisTask(axis, start)
         v, a = path.limits(speed, accel)
+        if self.elbow_path is not None:  # the elbow swing is timed like the rotation
+            ve, ae = self.elbow_path.limits(np.array([speed[1]]), np.array([accel[1]]))
+            v, a = min(v, ve), min(a, ae)
         if path_limits is not None:  # what the joints allow along this path
             v, a = min(v, path_limits[0]), min(a, path_limits[1])
         if not math.isfinite(v):  # zero-length path
@@ -206,15 +287,8 @@ class CartesianMotion(Motion):
         self.hold = (
             ControlPointTask(other, kin.pose(other)) if hold_other and other in kin.arms else None
         )
-        self.elbow: AxisTask | None = None
-        self._elbow_path: VectorPath | None = None
-        if elbow is not None and kin.has_elbow(side):
-            axis = elbow_axis(side)
-            start = axis_value(kin, axis)
-            goal = start + math.remainder(elbow - start, math.tau)
-            self._elbow_path = VectorPath(np.array([start]), np.array([goal]))
-            self.elbow = AxisTask(axis, start)
-            self.allowed[axis] = True
+        if self.elbow is not None:
+            self.allowed[self.elbow.axis] = True
 
     def setup(self) -> IKSetup:
         kin = self.kin
@@ -240,8 +314,8 @@ class CartesianMotion(Motion):
     def apply(self, s0: float, s1: float, dt: float) -> None:
         now = self.path.at(s0)
         self.task.set_target(now, average_twist(now, self.path.at(s1), dt))
-        if self.elbow is not None and self._elbow_path is not None:
-            e0, e1 = float(self._elbow_path.at(s0)[0]), float(self._elbow_path.at(s1)[0])
+        if self.elbow is not None and self.elbow_path is not None:
+            e0, e1 = float(self.elbow_path.at(s0)[0]), float(self.elbow_path.at(s1)[0])
             self.elbow.set_target(e0, (e1 - e0) / dt)
 
 
@@ -388,8 +462,10 @@ class AxisPathMotion(Motion):
     def apply(self, s0: float, s1: float, dt: float) -> None:
         follow_vector(self.tasks, self.path, s0, s1, dt)
 
-    def advance(self) -> None:
-        super().advance()
+    def advance(self, dt: float | None = None) -> None:
+        super().advance(dt)
+        if dt is not None:
+            self.dt = dt  # the next segment's time law starts at the current period
         last = len(self.waypoints) - 2
         if self.profile.finished and not self.profile.stopped and self._segment < last:
             self._segment += 1
@@ -407,8 +483,12 @@ class CPHoldMotion(AxisPathMotion):
     ``speed``/``accel`` per axis in ``targets`` order (vehicleX/Y: the translation limits).
     Only the axes in ``targets`` move: the joints of arms neither held nor carrying a moved
     elbow are frozen, and so are the waist and the vehicle when none of their axes is a
-    target. On a differential base the vehicle turns, drives and turns (vehicleTheta is
-    added, held at its value, when the targets do not name it).
+    target; every other redundant axis (the elbow of a held arm, the waist axes without a
+    target) is held at its value by the IK's axis rows. ``free_elbows``: the elbows of the
+    held arms are left free instead (when holding them would keep a hand from following
+    the body; the service says so in its answer). On a differential base the vehicle turns,
+    drives and turns (vehicleTheta is added, held at its value, when the targets do not
+    name it).
     """
 
     def __init__(
@@ -419,7 +499,9 @@ class CPHoldMotion(AxisPathMotion):
         targets: dict[RedundantAxis, float],
         speed: np.ndarray,
         accel: np.ndarray,
+        free_elbows: bool = False,
     ):
+        self.free_elbows = free_elbows
         targets = dict(targets)
         spd, acc = [float(x) for x in speed], [float(x) for x in accel]
         if is_differential(kin) and set(VEHICLE_AXES[:2]) & set(targets):
@@ -452,7 +534,11 @@ class CPHoldMotion(AxisPathMotion):
             frozen[kin.unit_indices(UnitType.LUMBER)] = True
         if not any(a.is_vehicle for a in self.axes):
             frozen[kin.unit_indices(UnitType.VEHICLE)] = True
-        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen)
+        # Axes without a target stay put (axes of frozen units are skipped by the rows).
+        allowed = {a: a in self.axes for a in available_axes(kin)}
+        if self.free_elbows:
+            allowed.update({a: True for a in allowed if a.is_elbow})
+        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen, allowed)
 
 
 class VehicleMotion(AxisPathMotion):

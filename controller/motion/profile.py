@@ -66,8 +66,13 @@ class PathProfile:
     def finished(self) -> bool:
         return self.state == ProfileState.DONE
 
-    def step(self) -> None:
-        """Advance one cycle (no-op when paused or done)."""
+    def step(self, dt: float | None = None) -> None:
+        """Advance one cycle of ``dt`` [s] (default: the nominal period; the motion core
+        passes the measured one, so motion time follows the wall clock). No-op when paused
+        or done."""
+        if dt is not None and dt != self.dt:
+            self.dt = dt
+            self._otg.delta_time = dt
         if self.state in (ProfileState.PAUSED, ProfileState.DONE):
             self.sd = self.sdd = 0.0
             return

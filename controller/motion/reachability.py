@@ -24,13 +24,19 @@ import numpy as np
 import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
-from controller.model.redundant_axes import RedundantAxis, available_axes, axis_jacobian
+from controller.model.redundant_axes import (
+    RedundantAxis,
+    available_axes,
+    axis_jacobian,
+    axis_value,
+    elbow_axis,
+)
 from controller.motion.motions import IKSetup
-from controller.motion.paths import ArcPath, LinePath
-from controller.qp.limits import BRAKING_SHARE, AxisRows
+from controller.motion.paths import ArcPath, LinePath, VectorPath
+from controller.qp.limits import BRAKING_SHARE, HOLD_MIN_ELBOW_OFFSET, AxisRows
 from controller.qp.solver import ProxQPSolver
 from controller.qp.tasks import pose_error
-from controller.vocabulary import RightLeft
+from controller.vocabulary import RightLeft, UnitType
 
 #: Accepted residual at every sample: position [m], orientation [rad].
 POSITION_TOL = 1e-4
@@ -49,6 +55,17 @@ MAX_SAMPLES = 10_000
 MIN_SINGULAR = 0.04
 #: Rotation rows are scaled by this length [m] to compare with translation rows.
 ROTATION_SCALE = 0.3
+#: A Cartesian path may not take a joint of the moving arm (any free joint, when the
+#: constrained arm has no redundancy left) closer than this to a limit [rad] / [m] unless it
+#: started there: the live IK brakes the joint before its limit and the rest cannot make up
+#: for it at speed, so the hand leaves the line (issue 16.2, SmartPal V: 6.5 mm off the line
+#: with r_arm_j6 on its limit; 1.8 mm with it 0.05 deg from its limit, elbow free). Waist
+#: and vehicle joints riding their limits are made up for by the arm.
+LIMIT_MARGIN = math.radians(0.2)
+LIMIT_MARGIN_M = 0.2e-3
+#: Weight of the elbow row [m/rad] (the pose rows weigh 1) and its accepted residual [rad].
+ELBOW_WEIGHT = 0.1
+ELBOW_TOL = math.radians(0.1)
 
 
 class ReachabilityChecker:
@@ -78,26 +95,49 @@ class ReachabilityChecker:
         path: LinePath | ArcPath,
         setup: IKSetup,
         hold: RightLeft | None = None,
+        elbow: VectorPath | None = None,
     ) -> str | None:
-        """None when every sample of ``path`` is reachable from ``live.q``; else why not."""
+        """None when every sample of ``path`` is reachable from ``live.q``; else why not.
+
+        ``elbow``: the elbow angle [rad] of ``side`` along the path (JARA CarPosWithElbow),
+        followed best-effort at every sample (the pose comes first), so the joint motion
+        recorded for :meth:`path_parameter_limits` includes the elbow swing."""
         too_long = _too_long(path, SAMPLE_STEP, SAMPLE_ANGLE)
         if too_long is not None:
             return too_long
         q, held = self._start(live, setup, hold)
         samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
+        axis = elbow_axis(side) if elbow is not None and self.kin.has_elbow(side) else None
+        if axis is not None and elbow is not None:
+            swing = abs(float(elbow.delta[0]))
+            n = max(len(samples), math.ceil(swing / SAMPLE_ANGLE) + 1)
+            samples = [i / (n - 1) for i in range(n)]
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
         self.last_q = q
         self.path_s = [float(samples[0])]
         self.path_q = [q.copy()]
+        #: The first sample that takes a joint close to its limit (reported if nothing
+        #: else is wrong with the path).
+        near: tuple[str, str, str] | None = None
+        rigid = self._redundancy(side, hold, setup.frozen, held_axes) <= 0
         for s in samples[1:]:
             target = path.at(s)
-            q, err = self._solve(q, side, target, setup.frozen, hold, held)
+            goal = None
+            if axis is not None and elbow is not None:
+                goal = (axis, float(elbow.at(s)[0]))
+            q, err = self._solve(q, side, target, setup.frozen, hold, held, goal)
             self.last_q = q
             self.path_s.append(float(s))
             self.path_q.append(q.copy())
             where = "the target" if s >= 1.0 else f"the path at {100 * s:.0f} %"
             if err is not None:
                 return f"{where} is not reachable: {err}"
+            if near is None:
+                # Without redundancy any free joint counts, else the moving arm's own.
+                watched = ~setup.frozen if rigid else self._arm_mask(side)
+                close = self._near_limit(q, self.path_q[0], watched)
+                if close is not None:
+                    near = (where, *close)
             sigma = self.conditioning(side, hold, setup.frozen, held_axes)
             if sigma < MIN_SINGULAR:
                 return (
@@ -105,7 +145,57 @@ class ReachabilityChecker:
                     f"value {sigma:.3f} m/rad, need {MIN_SINGULAR}): it could not be followed "
                     "at speed; allow more redundant axes or choose another target"
                 )
+        if near is not None:
+            where, name, gap = near
+            return (
+                f"{where} needs {name} within {gap} of its limit: the arm could not follow "
+                "the line there (the joint brakes before its limit); choose another target "
+                "or allow more redundant axes"
+            )
         return None
+
+    def _redundancy(
+        self,
+        side: RightLeft,
+        hold: RightLeft | None,
+        frozen: np.ndarray,
+        held_axes: list[RedundantAxis],
+    ) -> int:
+        """Degrees of freedom left over the control point(s) at the last update: free joints
+        minus the held axes' rows minus 6 per control point (≤ 0: the constrained arm has no
+        redundancy, so it cannot ride a joint limit and keep its line)."""
+        free = ~frozen
+        rows = [axis_jacobian(self.kin, a)[free] for a in held_axes]
+        rows = [r for r in rows if np.abs(r).max(initial=0.0) > 0.0]
+        rank = int(np.linalg.matrix_rank(np.vstack(rows))) if rows else 0
+        return int(free.sum()) - rank - 6 * (1 if hold is None else 2)
+
+    def _arm_mask(self, side: RightLeft) -> np.ndarray:
+        mask = np.zeros(self.kin.nv, dtype=bool)
+        mask[self.kin.unit_indices(UnitType[f"{side.name}_ARM"])] = True
+        return mask
+
+    def _near_limit(
+        self, q: np.ndarray, start: np.ndarray, watched: np.ndarray
+    ) -> tuple[str, str] | None:
+        """The first ``watched`` joint within LIMIT_MARGIN of a limit at ``q`` that was not
+        there at ``start``: its name and the gap shown in deg or mm; None if none."""
+        gap = np.minimum(q - self.q_min, self.q_max - q)
+        was = np.minimum(start - self.q_min, self.q_max - start)
+        margin = np.array(
+            [
+                LIMIT_MARGIN if self.kin.robot.joints[n].kind == "revolute" else LIMIT_MARGIN_M
+                for n in self.kin.joint_names
+            ]
+        )
+        bad = (gap < margin) & (was >= margin) & watched
+        if not bad.any():
+            return None
+        j = int(np.flatnonzero(bad)[0])
+        name = self.kin.joint_names[j]
+        revolute = self.kin.robot.joints[name].kind == "revolute"
+        shown = f"{math.degrees(gap[j]):.2f} deg" if revolute else f"{gap[j] * 1e3:.1f} mm"
+        return name, shown
 
     def path_parameter_limits(self, share: float = 0.8) -> tuple[float, float]:
         """Limits on the path parameter's rate [1/s] and acceleration [1/s²] that keep every
@@ -126,6 +216,47 @@ class ReachabilityChecker:
         v = share * float(np.min(self.v_max[moving] / slope[moving]))
         a = share * BRAKING_SHARE * float(np.min(self.a_max[moving] / slope[moving]))
         return v, a
+
+    def braking_speed_limit(
+        self, side: RightLeft, v: float, a: float, share: float = 0.8
+    ) -> tuple[float, tuple[str, float, float] | None]:
+        """Path rate [1/s] ≤ ``v`` at which no joint on the last checked path outruns the
+        IK's braking bound toward its limit, and the worst joint ``(name, s, distance)``
+        (None when nothing binds). ``a`` [1/s²]: the path acceleration.
+
+        A joint at distance ``d`` from the limit it moves toward, at ``dq/ds`` per unit of
+        path, can go at most ``√(2·share·a_b·d)`` (a_b = BRAKING_SHARE × its acceleration
+        limit): the live IK brakes it there whatever the path asks, the hand then leaves the
+        line and the arm may fold into another configuration. Likewise a joint whose path
+        bends (``d²q/ds²``) needs ``|d²q/ds²|·ṡ²`` of acceleration to follow it: at most
+        ``share·a_b``. The time law's own ramps bound ṡ by ``√(2·a·min(s, 1 − s))`` near the
+        ends, so only samples where that is higher constrain ``v``. Only the joints of
+        ``side``'s arm count, and only where they are farther than LIMIT_MARGIN from the limit
+        (closer is the near-limit rule of :meth:`check`; waist and vehicle riding their
+        limits are made up for by the arm)."""
+        if len(self.path_q) < 3:
+            return v, None
+        q = np.array(self.path_q)
+        s = np.array(self.path_s)
+        if np.any(np.diff(s) <= 0.0):
+            return v, None
+        slope = np.gradient(q, s, axis=0)
+        dist = np.where(slope > 0.0, self.q_max - q, q - self.q_min)
+        brake = share * BRAKING_SHARE * self.a_max
+        speed = np.abs(slope)
+        bend = np.abs(np.gradient(slope, s, axis=0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cap = np.where(
+                speed > 1e-9, np.sqrt(2.0 * brake * np.maximum(dist, 0.0)) / speed, np.inf
+            )
+            cap = np.minimum(cap, np.where(bend > 1e-9, np.sqrt(brake / bend), np.inf))
+        ramp = np.sqrt(2.0 * a * np.minimum(s, 1.0 - s))[:, None]
+        arm = self._arm_mask(side)[None, :] & (dist > LIMIT_MARGIN)
+        cap = np.where(arm & (cap < np.minimum(ramp, v)), cap, np.inf)
+        k, j = np.unravel_index(int(np.argmin(cap)), cap.shape)
+        if not math.isfinite(float(cap[k, j])):
+            return v, None
+        return float(cap[k, j]), (self.kin.joint_names[j], float(s[k]), float(dist[k, j]))
 
     def solve_pose(
         self,
@@ -198,8 +329,13 @@ class ReachabilityChecker:
         frozen: np.ndarray,
         hold: RightLeft | None,
         held: pin.SE3 | None,
+        elbow: tuple[RedundantAxis, float] | None = None,
     ) -> tuple[np.ndarray, str | None]:
+        """Position-level IK toward ``target`` (and the held pose); ``elbow``: an elbow
+        angle [rad] to approach as well, best-effort (retried without it when the pose
+        cannot be reached with it)."""
         kin = self.kin
+        start = q
         for _ in range(MAX_ITER):
             kin.update(q)
             jacs = [kin.jacobian(side)]
@@ -207,11 +343,16 @@ class ReachabilityChecker:
             if hold is not None and held is not None:
                 jacs.append(kin.jacobian(hold))
                 errs.append(pose_error(held, kin.pose(hold)))
-            err = np.concatenate(errs)
             pos = max(float(np.linalg.norm(e[:3])) for e in errs)
             ang = max(float(np.linalg.norm(e[3:])) for e in errs)
-            if pos < POSITION_TOL and ang < ANGLE_TOL:
+            swing = 0.0
+            if elbow is not None and kin.elbow_offset(elbow[0].side) > HOLD_MIN_ELBOW_OFFSET:
+                swing = math.remainder(elbow[1] - axis_value(kin, elbow[0]), math.tau)
+                jacs.append(ELBOW_WEIGHT * axis_jacobian(kin, elbow[0])[None, :])
+                errs.append(np.array([ELBOW_WEIGHT * swing]))
+            if pos < POSITION_TOL and ang < ANGLE_TOL and abs(swing) < ELBOW_TOL:
                 return q, None
+            err = np.concatenate(errs)
             jac = np.vstack(jacs)
             H = jac.T @ jac + DAMPING * np.eye(kin.nv)
             g = -jac.T @ err
@@ -227,6 +368,18 @@ class ReachabilityChecker:
             if float(np.abs(dq).max()) < 1e-9:
                 break  # stuck
             q = q + np.clip(dq, lb, ub)
+        if elbow is not None:
+            kin.update(q)
+            errs = [pose_error(target, kin.pose(side))]
+            if hold is not None and held is not None:
+                errs.append(pose_error(held, kin.pose(hold)))
+            if all(
+                np.linalg.norm(e[:3]) < POSITION_TOL and np.linalg.norm(e[3:]) < ANGLE_TOL
+                for e in errs
+            ):
+                return q, None  # the pose is reached; the elbow as near as it gets
+            # The pose first: this sample again without the elbow.
+            return self._solve(start, side, target, frozen, hold, held, None)
         return q, self._describe(q, pos, ang, frozen)
 
     def _describe(self, q: np.ndarray, pos: float, ang: float, frozen: np.ndarray) -> str:

@@ -26,7 +26,7 @@ from controller.gateway.planning.limits import require_in_workspace
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.redundancy import lumbar_range
 from controller.gateway.planning.relative import elbow_goal
-from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
 from controller.motion.motions import other_side
 from controller.vocabulary import ReturnCode, RightLeft
 
@@ -137,6 +137,19 @@ def plan_cp_hold(
         q0, held, targets, np.array(speeds), np.array(accels), label="CP-hold move"
     )
     reason = planner.dry_run(snap, q0, spec, commanded=moved)
+    notes = [note] if note else []
+    kin_axes = available_axes(planner.view.kin)
+    held_elbows = [elbow_axis(s) for s in held if elbow_axis(s) in kin_axes]
+    if reason is not None and held_elbows and not any(a in targets for a in held_elbows):
+        # Axes without a target stay put, unless a held hand cannot follow the body with its
+        # elbow held: then the elbow moves, and the answer says so (issue 16.4).
+        spec.free_elbows = True
+        if planner.dry_run(snap, q0, spec, commanded=moved) is None:
+            names = ", ".join(a.value for a in held_elbows)
+            notes.append(
+                f"{names} left free to keep the held hand(s): with the elbow held, {reason}"
+            )
+            reason = None
     if reason is not None:
         raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
-    return CPHoldPlan(spec, q0, f"OK ({note})" if note else None)
+    return CPHoldPlan(spec, q0, f"OK ({'; '.join(notes)})" if notes else None)

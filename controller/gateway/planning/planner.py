@@ -138,13 +138,28 @@ class Planner:
                     self.require_reach(kin, side, point, allowed)
             motion = spec.build(kin, self.dt)
             hold = other_side(side) if spec.hold_other else None
-            reason = self.checker.check(kin, side, motion.path, motion.setup(), hold)  # type: ignore[attr-defined]
+            elbow_path = getattr(motion, "elbow_path", None)
+            reason = self.checker.check(kin, side, motion.path, motion.setup(), hold, elbow_path)  # type: ignore[attr-defined]
             q_end = self.checker.last_q.copy()
             limits = self.checker.path_parameter_limits()
             if reason is None and elbow is not None:
                 self._check_elbow(side, q_end, elbow)
+            v, a = motion.profile_limits  # type: ignore[attr-defined]
+            v, a = min(v, limits[0]), min(a, limits[1])
+            cap, worst = self.checker.braking_speed_limit(side, v, a)
         if reason is not None:
             raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
+        if worst is not None:
+            if cap < MIN_SPEED_SHARE * v:
+                name, s, dist = worst
+                raise Refused(
+                    ReturnCode.CANNOT_REACH_TARGET_ERR,
+                    f"the path at {100 * s:.0f} % runs {name} toward its limit "
+                    f"({_show(dist, name, self.view)} left): the arm could not stay on the "
+                    "line at any useful speed; choose another target or allow more "
+                    "redundant axes",
+                )
+            limits = (cap, limits[1])  # slower, so the joint never has to brake off the line
         if math.isfinite(limits[0]):
             spec.path_limits = limits
         return spec, q_end
@@ -328,6 +343,11 @@ class Planner:
             planned_from=q0.copy(),
             label="vehicle move",
         )
+
+
+#: A linear move is refused when its joints near their limits would slow it below this
+#: share of its requested speed (see ReachabilityChecker.braking_speed_limit).
+MIN_SPEED_SHARE = 0.05
 
 
 def min_duration(distance: np.ndarray, v_max: np.ndarray, a_max: np.ndarray) -> float:
