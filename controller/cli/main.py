@@ -134,6 +134,7 @@ def _command_list() -> str:
         f"  {PROG} record FILE.mcap [--seconds N] record the state stream to MCAP",
         f"  {PROG} plot FILE.mcap               PNG plots of a recording or black-box file",
         f"  {PROG} view [--url URL]             check the live view, print how to open it",
+        f"  {PROG} inject KIND [TARGET] [K=V ...] inject a drive fault (--hal hil, test only)",
         f"  {PROG} OPERATION --help              arguments of one operation, with units",
         "",
         "exit status: 0 OK; 11..16 ReturnID NG, STATUS_ERR, VALUE_ERR, NOT_SV_ON_ERR,",
@@ -183,7 +184,7 @@ def _lookup(group: str, name: str | None, prog: str) -> CliOperation:
     if op is None:
         names = list(arguments.operations(group))
         if group == "integrated":
-            names += ["arm", "dual", "watch", "list", "record", "plot", "view"]
+            names += ["arm", "dual", "watch", "list", "record", "plot", "view", "inject"]
         close = difflib.get_close_matches(name, names, n=1)
         hint = f"; did you mean {close[0]}?" if close else f" (see {PROG} list)"
         raise UsageError(f"{prog}: unknown operation {name!r}{hint}")
@@ -213,6 +214,48 @@ def run_watch(rest: list[str], ns: argparse.Namespace) -> int:
         raise UsageError(f"{PROG} watch: --rate must be a finite number >= 0, got {ns.rate}")
     with connect(ns) as client:
         return watch.run(client, ns.rate, ns.once, Console())
+
+
+INJECT_HELP = """Fault injection into the drive emulator of `imotiond --hal hil` (the daemon
+needs `testing.fault_injection: true`; a motion call: the motion token applies).
+
+kinds: emcy [code=0x8110 fault=true], silent, heartbeat_loss, following_error,
+refuse_enable, bus_off [bus=NAME], delayed_tpdo [cycles=1]; TARGET is the drive's joint
+name (a bus name for bus_off). `--clear [KIND] [TARGET]` ends lasting faults.
+Example: imotion inject emcy r_arm_j2 code=0x8110"""
+
+
+def run_inject(rest: list[str], ns: argparse.Namespace) -> int:
+    parser = Parser(prog=f"{PROG} inject", description=INJECT_HELP, allow_abbrev=False,
+                    formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    add_global_options(parser, suppress=True)
+    parser.add_argument("--clear", action="store_true", help="clear lasting faults instead")
+    parser.add_argument("kind", nargs="?", default="", help="fault kind (see above)")
+    parser.add_argument("target", nargs="?", default="", help="joint (drive) or bus name")
+    parser.add_argument("params", nargs="*", metavar="KEY=VALUE", help="fault parameters")
+    parser.parse_intermixed_args(rest, namespace=ns)
+    params: dict[str, str] = {}
+    for item in ns.params:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise UsageError(f"{PROG} inject: parameter {item!r} is not KEY=VALUE")
+        params[key] = value
+    with connect(ns) as client:
+        if ns.clear:
+            if params:
+                raise UsageError(f"{PROG} inject --clear takes no KEY=VALUE parameters")
+            rid, cleared = client.clear_faults(ns.kind, ns.target)
+            data: dict[str, object] = {"cleared": cleared}
+        else:
+            if not ns.kind:
+                raise UsageError(f"{PROG} inject: missing KIND (see {PROG} inject --help)")
+            rid = client.inject_fault(ns.kind, ns.target, **params)
+            data = {}
+    if ns.json:
+        print(output.json.dumps({"returnId": {"id": rid.id, "comment": rid.comment}, **data}))
+    else:
+        print(rid)
+    return 0 if rid.ok else output.exit_code(rid.id)
 
 
 def run_observe(command: str, rest: list[str], ns: argparse.Namespace) -> int:
@@ -320,6 +363,8 @@ def run(argv: Sequence[str] | None) -> int:
         return run_watch(rest, ns)
     if command in ("record", "plot", "view"):
         return run_observe(command, rest, ns)
+    if command == "inject":
+        return run_inject(rest, ns)
     if command == "arm":
         if not rest:
             raise UsageError(f"{PROG} arm: missing RIGHT|LEFT")

@@ -23,12 +23,13 @@ from typing import Any
 import grpc
 from google.protobuf.message import Message
 
+from controller.client.codes import ReturnID
 from controller.client.convert import resolve_enum
 from controller.client.errors import ClientError, from_rpc_error
 from controller.client.monitor import Monitor
 from controller.client.service import ServiceProxy
 from controller.client.types import RightLeft
-from controller.rpc import imotion_pb2
+from controller.rpc import imotion_pb2, imotion_pb2_grpc
 
 DEFAULT_ADDRESS = "127.0.0.1:50051"
 #: Seconds the connection check may take [s].
@@ -203,6 +204,25 @@ class Client:
             delay = poll if deadline is None else min(poll, max(0.0, deadline - time.monotonic()))
             time.sleep(delay)
 
+    # ------------------------------------------------------------------ testing (hal hil)
+    def inject_fault(self, kind: str, target: str = "", **params: object) -> ReturnID:
+        """Inject fault ``kind`` into drive (joint name) or bus ``target`` of the drive
+        emulator (``imotiond --hal hil`` with ``testing.fault_injection: true``). ``params``
+        by name, e.g. ``code=0x8110``, ``cycles=2``, ``fault=False``."""
+        request = imotion_pb2.TestingInjectFaultRequest(
+            kind=kind, target=target, params={k: _param_text(v) for k, v in params.items()}
+        )
+        stub = imotion_pb2_grpc.TestingStub(self.channel)
+        reply = self.transport.unary("inject", stub.InjectFault, request)
+        return ReturnID(reply.return_id.id, reply.return_id.comment)
+
+    def clear_faults(self, kind: str = "", target: str = "") -> tuple[ReturnID, int]:
+        """Clear lasting injected faults (all of them by default); ``(ReturnID, cleared)``."""
+        request = imotion_pb2.TestingClearFaultsRequest(kind=kind, target=target)
+        stub = imotion_pb2_grpc.TestingStub(self.channel)
+        reply = self.transport.unary("clear faults", stub.ClearFaults, request)
+        return ReturnID(reply.return_id.id, reply.return_id.comment), int(reply.cleared)
+
     def close(self) -> None:
         self.channel.close()
 
@@ -226,3 +246,10 @@ def connect(
 ) -> Client:
     """Shorthand for :meth:`Client.connect`."""
     return Client.connect(address, token, root_certificates, timeout, call_timeout, check)
+
+
+def _param_text(value: object) -> str:
+    """A fault parameter as the Testing service reads it (bools as true/false)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
