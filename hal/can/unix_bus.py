@@ -34,6 +34,7 @@ import socket
 import struct
 import tempfile
 import time
+from collections import deque
 from pathlib import Path
 from typing import Any
 
@@ -118,6 +119,8 @@ class UnixBus(can.BusABC):
         #: Frames a peer could not take (its queue was full).
         self.dropped = 0
         self._own: list[can.Message] = []
+        #: Frames read from the peers, not yet returned (raw, oldest first).
+        self._pending: deque[bytes] = deque()
         self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
         self.path = self.directory / f"{os.getpid()}-{next(_counter)}"
         if len(os.fsencode(self.path)) > _PATH_MAX:
@@ -154,10 +157,7 @@ class UnixBus(can.BusABC):
             try:
                 peer.send(frame)
             except BlockingIOError:
-                self.dropped += 1
-                if self.dropped in (1, 10, 100) or self.dropped % 1000 == 0:
-                    log.warning("%s: a peer is not reading (%d frames dropped)",
-                                self.channel_info, self.dropped)  # fmt: skip
+                self._dropped()
             except OSError:  # the peer went away
                 self._forget(fd)
         if self.receive_own_messages:
@@ -167,26 +167,52 @@ class UnixBus(can.BusABC):
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         if self._own:
             return self._own.pop(0), False
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while True:
-            wait = -1.0 if deadline is None else max(0.0, deadline - time.monotonic())
+        channel = os.fspath(self.directory)
+        pending = self._pending
+        if not pending:
+            self._fill(0.0)
+            if not pending and timeout != 0.0:
+                deadline = None if timeout is None else time.monotonic() + timeout
+                while not pending:
+                    left = -1.0 if deadline is None else deadline - time.monotonic()
+                    if deadline is not None and left <= 0.0:
+                        break
+                    self._fill(left)
+        while pending:
             try:
-                events = self._epoll.poll(wait)
-            except InterruptedError:
-                events = []
-            except (OSError, ValueError) as exc:
-                raise can.CanOperationError(f"{self.channel_info}: {exc}") from exc
-            accepted = False
-            for fd, _ in events:
-                if fd == self._listener.fileno():
-                    self._accept()
-                    accepted = True
-                    continue
-                msg = self._read(fd)
-                if msg is not None:
-                    return msg, False
-            if not accepted and deadline is not None and time.monotonic() >= deadline:
-                return None, False
+                return decode(pending.popleft(), channel), False
+            except ValueError as exc:
+                log.warning("%s", exc)
+        return None, False
+
+    def send_raw(self, can_id: int, data: bytes) -> None:
+        """Send a classic 11-bit data frame without building a :class:`can.Message` (the
+        emulator's fast path; same wire frame as :meth:`send`)."""
+        frame = _HEADER.pack(can_id, 0, len(data), len(data), time.time()) + data
+        for fd, peer in list(self._peers.items()):
+            try:
+                peer.send(frame)
+            except BlockingIOError:
+                self._dropped()
+            except OSError:
+                self._forget(fd)
+
+    def recv_raw(self) -> list[tuple[int, bytes]]:
+        """Every waiting classic 11-bit data frame as ``(identifier, data)``, without waiting
+        and without :class:`can.Message` (the emulator's fast path). Other frames (extended,
+        remote, error, FD) are dropped here; filters do not apply."""
+        self._fill(0.0)
+        out = []
+        pending = self._pending
+        header = _HEADER
+        while pending:
+            frame = pending.popleft()
+            if len(frame) < header.size:
+                continue
+            can_id, flags, _, size, _ = header.unpack_from(frame)
+            if not flags and len(frame) == header.size + size:
+                out.append((can_id, frame[header.size :]))
+        return out
 
     def shutdown(self) -> None:
         super().shutdown()
@@ -202,24 +228,41 @@ class UnixBus(can.BusABC):
 
     # ---------------------------------------------------------------------------- internals
 
-    def _read(self, fd: int) -> can.Message | None:
-        peer = self._peers.get(fd)
-        if peer is None:
-            return None
+    def _fill(self, timeout: float) -> None:
+        """Wait up to ``timeout`` [s] (< 0: for ever) for a peer; then move every frame
+        waiting on every ready peer to :attr:`_pending`, and accept new peers."""
         try:
-            frame = peer.recv(_MAX_FRAME)
-        except BlockingIOError:
-            return None
-        except OSError:
-            frame = b""
-        if not frame:  # the peer closed its end
-            self._forget(fd)
-            return None
-        try:
-            return decode(frame, os.fspath(self.directory))
-        except ValueError as exc:
-            log.warning("%s", exc)
-            return None
+            events = self._epoll.poll(timeout)
+        except InterruptedError:
+            return
+        except (OSError, ValueError) as exc:
+            raise can.CanOperationError(f"{self.channel_info}: {exc}") from exc
+        listener = self._listener.fileno()
+        pending = self._pending
+        ready = [fd for fd, _ in events if fd != listener]
+        if len(ready) < len(events):
+            ready += self._accept()  # a new peer may have sent already
+        for fd in ready:
+            peer = self._peers.get(fd)
+            if peer is None:
+                continue
+            while True:
+                try:
+                    frame = peer.recv(_MAX_FRAME)
+                except BlockingIOError:
+                    break
+                except OSError:
+                    frame = b""
+                if not frame:  # the peer closed its end
+                    self._forget(fd)
+                    break
+                pending.append(frame)
+
+    def _dropped(self) -> None:
+        self.dropped += 1
+        if self.dropped in (1, 10, 100) or self.dropped % 1000 == 0:
+            log.warning("%s: a peer is not reading (%d frames dropped)",
+                        self.channel_info, self.dropped)  # fmt: skip
 
     def _connect(self, entry: Path) -> None:
         peer = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
@@ -238,13 +281,16 @@ class UnixBus(can.BusABC):
             return
         self._add(peer)
 
-    def _accept(self) -> None:
+    def _accept(self) -> list[int]:
+        """Accept every waiting peer; their descriptors."""
+        added = []
         while True:
             try:
                 peer, _ = self._listener.accept()
             except (BlockingIOError, OSError):
-                return
+                return added
             self._add(peer)
+            added.append(peer.fileno())
 
     def _add(self, peer: socket.socket) -> None:
         peer.setblocking(False)

@@ -2,6 +2,9 @@
 
 Usage::
 
+    imotion-sim --robot smartpal5 --unix /tmp/sp5
+        # every bus on the ``unix`` transport (hal.can.unix_bus): bus B is the directory
+        # /tmp/sp5/B (a plain name such as ``sp5`` goes under $XDG_RUNTIME_DIR/imotion-can)
     imotion-sim --robot smartpal5 --serve 127.0.0.1:54701
         # no vcan (this machine): host one python-can-remote endpoint per bus on 127.0.0.1,
         # ports 54701, 54702, ... in drives.yaml bus order (port 0: any free ports)
@@ -39,6 +42,7 @@ from controller.model.robot import load_robot
 from controller.model.yaml_source import ConfigError
 from controller.version import add_version_argument
 from hal.can.drive_profile import drives_path, load_drive_profile
+from hal.can.unix_bus import INTERFACE, bus_directory
 from hal.emulator.bridge import BusBridge
 from hal.emulator.emulator import DriveEmulator
 
@@ -52,6 +56,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--robot", required=True, help="robot id or directory (drives.yaml)")
     parser.add_argument("--drives", help="another drive profile (default: the robot's)")
     parser.add_argument("--period", type=float, help="simulated time per SYNC [s]")
+    parser.add_argument(
+        "--unix", metavar="DIR", help="every bus on interface 'unix', channel DIR/<bus>"
+    )
     parser.add_argument(
         "--serve", metavar="HOST:PORT", help="serve every bus with python-can-remote"
     )
@@ -67,8 +74,14 @@ def _parser() -> argparse.ArgumentParser:
 
 def _channels(args: argparse.Namespace, buses: Sequence[str]) -> dict[str, tuple[str, str]]:
     """Bus -> (interface, channel) from --interface/--channel; ValueError naming the problem."""
-    if args.serve and (args.channel or args.interface):
-        raise ValueError("--serve hosts its own buses: leave out --interface and --channel")
+    if args.serve and args.unix:
+        raise ValueError("--serve or --unix, not both")
+    if (args.serve or args.unix) and (args.channel or args.interface):
+        option = "--serve" if args.serve else "--unix"
+        raise ValueError(f"{option} hosts its own buses: leave out --interface and --channel")
+    if args.unix:
+        base = bus_directory(args.unix)
+        return {bus: (INTERFACE, str(base / bus)) for bus in buses}
     if args.channel and not args.interface:
         raise ValueError("--channel needs --interface (e.g. socketcan or remote)")
     out: dict[str, tuple[str, str]] = {}
