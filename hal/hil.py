@@ -91,9 +91,10 @@ class EmulatorProcess:
 
     def _readline(self) -> str:
         """One line of the child's stdout within :data:`PROCESS_TIMEOUT`; OSError if none."""
-        assert self.process.stdout is not None
+        stdout = self.process.stdout
+        assert stdout is not None
         got: list[str] = []
-        reader = threading.Thread(target=lambda: got.append(self.process.stdout.readline()))
+        reader = threading.Thread(target=lambda: got.append(stdout.readline()))
         reader.daemon = True
         reader.start()
         reader.join(PROCESS_TIMEOUT)

@@ -1,6 +1,9 @@
 """imotiond with ``--hal hil`` end to end: gRPC client -> daemon -> QP -> CAN frames -> drive
 emulator -> MuJoCo -> TPDOs -> feedback, SmartPal V on its five buses at 250 and 500 Hz.
 
+The emulator runs as ``--hal hil`` runs it by default: its own process (``imotion-sim`` on
+``unix`` buses), the master without lockstep, as on real buses; faults go in over its stdin.
+
 One daemon per rate for the module (loop thread + in-process gateway on 127.0.0.1, real
 gRPC, tests/daemon_support.py). Tolerances are those of HIL: the joints follow CSP targets
 in MuJoCo through servos, the feedback is one cycle old and the base pose is odometry from
@@ -20,7 +23,7 @@ from controller.model.alarms import AlarmCode
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode
 from hal.can.backend import CanBackend
-from hal.emulator.emulator import DriveEmulator
+from hal.hil import EmulatorProcess
 from tests.daemon_support import TestDaemon
 
 #: Right hand within this of its target after a linear move [mm].
@@ -46,10 +49,10 @@ def daemon(request: pytest.FixtureRequest) -> Iterator[TestDaemon]:
         d.close()
 
 
-def emulator(d: TestDaemon) -> DriveEmulator:
-    """The in-process drive emulator behind the daemon's CAN backend."""
+def emulator(d: TestDaemon) -> EmulatorProcess:
+    """The drive emulator process behind the daemon's CAN backend."""
     hw = d.daemon.hw
-    assert isinstance(hw, CanBackend) and isinstance(hw.emulator, DriveEmulator)
+    assert isinstance(hw, CanBackend) and isinstance(hw.emulator, EmulatorProcess)
     return hw.emulator
 
 
@@ -128,7 +131,7 @@ def test_vehicle_move_is_seen_in_the_wheel_odometry(daemon: TestDaemon):
     hw = daemon.daemon.hw
     assert isinstance(hw, CanBackend)
     assert all(hw.frames_received[bus] > 0 for bus in hw.profile.buses)
-    assert hw.lockstep_timeouts == 0
+    assert hw.lockstep is None  # a partner process: no lockstep
     assert daemon.state() == S.READY and not alarms(daemon)
 
 

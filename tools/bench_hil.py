@@ -41,6 +41,7 @@ from controller.motion.motions import Motion  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
 from hal.can.backend import CanBackend  # noqa: E402
 from hal.factory import make_hardware  # noqa: E402
+from hal.interface import JointCommand, JointState  # noqa: E402
 
 
 def main() -> int:
@@ -68,13 +69,13 @@ def main() -> int:
     timing = {"cpu": 0.0, "wall": 0.0}
     read, write = hw.read, hw.write
 
-    def timed_read():  # type: ignore[no-untyped-def]
+    def timed_read() -> JointState:
         c, w = time.thread_time(), time.perf_counter()
         state = read()
         timing["cpu"], timing["wall"] = time.thread_time() - c, time.perf_counter() - w
         return state
 
-    def timed_write(command):  # type: ignore[no-untyped-def]
+    def timed_write(command: JointCommand) -> None:
         c, w = time.thread_time(), time.perf_counter()
         write(command)
         master_cpu.append(timing["cpu"] + time.thread_time() - c)

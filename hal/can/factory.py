@@ -50,7 +50,7 @@ class CanSettings:
 
     profile: DriveProfile
     directory: Path
-    timing: dict[str, float]
+    timing: dict[str, Any]
     buses: dict[str, dict[str, Any]]
 
 
@@ -77,7 +77,9 @@ def can_settings(
     _, warning = busload.check(profile, 1.0 / dt)
     if warning:
         log.warning("%s", warning)
-    timing = {k: v for k in _BACKEND_SECONDS if (v := seconds(options, k)) is not None}
+    timing: dict[str, Any] = {
+        k: v for k in _BACKEND_SECONDS if (v := seconds(options, k)) is not None
+    }
     tpdo_timeout = seconds(options, "tpdo_timeout")
     if tpdo_timeout:
         cycles = max(profile.tpdo_timeout_cycles, math.ceil(tpdo_timeout / dt - 1e-9))

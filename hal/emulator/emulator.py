@@ -69,6 +69,14 @@ SYNC_COB_ID = 0x080
 _instances = itertools.count(1)
 #: Heartbeat tick period of the threads [s].
 TICK = 0.005
+#: A batch of frames that took longer than this [s] is logged (the emulator fell behind).
+SLOW_BATCH = 0.02
+#: Batches handled at most before the heartbeats are ticked (frames keep coming).
+CATCH_UP = 20
+
+
+def _stamp(frame: tuple[float, int, int, bytes]) -> float:
+    return frame[0]
 
 
 class DriveEmulator:
@@ -261,26 +269,11 @@ class DriveEmulator:
     # ------------------------------------------------------------------- synchronous API
 
     def poll(self, now: float | None = None) -> int:
-        """Tick heartbeats at ``now``, then handle every frame waiting on every bus; how many."""
-        handled = 0
+        """Tick heartbeats at ``now``, then handle every frame waiting on every bus, in the
+        order they were sent; how many."""
         with self._lock:
             self._tick(self._clock() if now is None else now)
-            for port in self._ports.values():
-                bus = port.bus
-                if bus is None:
-                    continue
-                if port.recv_raw is not None:
-                    for can_id, data in port.recv_raw():
-                        self._frame(port, can_id, data)
-                        handled += 1
-                    continue
-                while True:
-                    msg = bus.recv(0.0)
-                    if msg is None:
-                        break
-                    self._process(port, msg)
-                    handled += 1
-        return handled
+            return self._handle(list(self._ports.values()))
 
     def process(self, bus: str, msg: can.Message) -> None:
         """Handle one frame as if received on ``bus``."""
@@ -420,8 +413,8 @@ class DriveEmulator:
                     log.exception("bus %s: frame 0x%03X failed", port.name, msg.arbitration_id)
 
     def _select_loop(self, ports: list[Port]) -> None:
-        """All buses in one thread: wait on their descriptors, handle every waiting frame in
-        bus order, tick the heartbeats every :data:`TICK` [s]."""
+        """All buses in one thread: wait on their descriptors, then handle every frame waiting
+        on any bus in the order they were sent; tick the heartbeats every :data:`TICK` [s]."""
         fds = {port.bus.fileno(): port for port in ports if port.bus is not None}
         next_tick = 0.0
         while self._running.is_set():
@@ -432,41 +425,38 @@ class DriveEmulator:
                     log.error("emulator: select failed, the emulator stops: %s", exc)
                 return
             with self._lock:
-                for port in ports if ready else ():
-                    bus = port.bus
-                    if port.recv_raw is not None:
-                        self._drain_raw(port, port.recv_raw)
-                        continue
-                    while bus is not None:
-                        try:
-                            msg = bus.recv(0.0)
-                        except Exception as exc:
-                            log.error("bus %s: receive failed: %s", port.name, exc)
-                            break
-                        if msg is None:
-                            break
-                        try:
-                            self._process(port, msg)
-                        except Exception:  # one bad frame must not end the bus
-                            log.exception(
-                                "bus %s: frame 0x%03X failed", port.name, msg.arbitration_id
-                            )
+                start = time.monotonic()
+                handled = 0
+                for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
+                    batch = self._handle(ports)  # the ticks below see every heartbeat
+                    handled += batch
+                    if not batch:
+                        break
+                took = time.monotonic() - start
+                if took > SLOW_BATCH:
+                    log.warning("emulator: %.0f ms to handle %d frames (host busy?)",
+                                took * 1e3, handled)  # fmt: skip
                 now = self._clock()
                 if now >= next_tick:
                     self._tick(now)
                     next_tick = now + TICK
 
-    def _drain_raw(self, port: Port, recv_raw: Callable[[], list[tuple[int, bytes]]]) -> None:
-        try:
-            frames = recv_raw()
-        except Exception as exc:
-            log.error("bus %s: receive failed: %s", port.name, exc)
-            return
-        for can_id, data in frames:
+    def _handle(self, ports: list[Port]) -> int:
+        """Every frame waiting on ``ports``, in the order they were sent (their timestamps):
+        a SYNC round is then seen as the master sent it, however the buses were read."""
+        frames: list[tuple[float, int, int, bytes]] = []
+        for k, port in enumerate(ports):
             try:
-                self._frame(port, can_id, data)
+                frames += [(stamp, k, can_id, data) for stamp, can_id, data in port.receive()]
+            except Exception as exc:
+                log.error("bus %s: receive failed: %s", port.name, exc)
+        frames.sort(key=_stamp)
+        for _, k, can_id, data in frames:
+            try:
+                self._frame(ports[k], can_id, data)
             except Exception:  # one bad frame must not end the bus
-                log.exception("bus %s: frame 0x%03X failed", port.name, can_id)
+                log.exception("bus %s: frame 0x%03X failed", ports[k].name, can_id)
+        return len(frames)
 
     def _tick_loop(self) -> None:
         while self._running.is_set():

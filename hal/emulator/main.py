@@ -22,12 +22,14 @@ drives=<n>``, then answers to commands. stdin (optional): one command per line,
 * ``clear [<kind>|-] [<joint>]``, ``status``;
 
 each answered on stdout by one line ``ok ...`` or ``error ...``. stderr: logfmt log lines.
-SIGTERM and SIGINT close the buses and exit 0; a bus that cannot be opened exits 2.
+SIGTERM and SIGINT close the buses and exit 0; a bus that cannot be opened exits 2. SIGUSR1
+writes every thread's stack to stderr (a stalled emulator).
 """
 
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import logging
 import signal
 import sys
@@ -207,6 +209,7 @@ def _run(args: argparse.Namespace) -> int:
         drives = len(profile.drives_on(bus))
         print(f"bus={bus} interface={shown[0]} channel={shown[1]} drives={drives}", flush=True)
     stop = threading.Event()
+    faulthandler.register(signal.SIGUSR1, all_threads=True)  # stacks to stderr, for a stall
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     reader = threading.Thread(

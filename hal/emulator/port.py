@@ -33,7 +33,7 @@ class Port:
         self.indices: list[int] = []
         self.bus: can.BusABC | None = None
         self.send_raw: Callable[[int, bytes], None] | None = None
-        self.recv_raw: Callable[[], list[tuple[int, bytes]]] | None = None
+        self.recv_raw: Callable[[], list[tuple[float, int, bytes]]] | None = None
         self.bus_off = False
         self.routes: dict[int, list[Handler]] = {}
         #: SYNC COB-ID -> positions in :attr:`drives` of the drives it synchronises.
@@ -79,6 +79,19 @@ class Port:
             groups.setdefault(drive.sync_cob_id, []).append(k)
         self.sync_groups = groups
         self.dirty = False
+
+    def receive(self) -> list[tuple[float, int, bytes]]:
+        """Every frame waiting (no wait): ``(timestamp [s], identifier, data)`` of classic
+        11-bit data frames; others are dropped."""
+        if self.bus is None:
+            return []
+        if self.recv_raw is not None:
+            return self.recv_raw()
+        out = []
+        while (msg := self.bus.recv(0.0)) is not None:
+            if not (msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id):
+                out.append((msg.timestamp, msg.arbitration_id, bytes(msg.data)))
+        return out
 
     def selectable(self) -> bool:
         """The bus has a file descriptor to wait on (``unix``, ``socketcan``)."""
