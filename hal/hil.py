@@ -8,8 +8,11 @@ are :class:`~hal.emulator.emulator.DriveEmulator`. Two ways to join them
   own core and GIL), on ``unix`` buses (:mod:`hal.can.unix_bus`) in a private directory.
   The master runs as on real buses: no lockstep, supervision on its own timing. Defaults
   fitted to a partner process on a shared host: ``feedback_wait`` 20 % of the period (read()
-  lets a late TPDO come) and ``tpdo_timeout`` 0.1 s (0x405 after 0.1 s without TPDO1, not
-  after 3 cycles). The emulator stops when the backend shuts down.
+  lets a late TPDO come), ``tpdo_timeout`` 0.1 s (0x405 after 0.1 s without TPDO1, not
+  after 3 cycles) and ``heartbeat_timeout`` 1 s (heartbeat consumers; a busy host may hold a
+  process back for hundreds of ms). ``emulator_priority`` (1..99) runs the emulator's thread
+  under SCHED_FIFO at that priority (default 0: normal scheduling), as the loop runs with
+  ``realtime``. The emulator stops when the backend shuts down.
 * ``thread``: the emulator in this process, on private python-can ``virtual`` buses, in
   deterministic lockstep: every ``read()`` waits until the emulator has answered the SYNCs
   of the cycle just sent (``lockstep_timeout``, default 1 s). For tests that need it; the
@@ -42,7 +45,12 @@ from hal.can.unix_bus import INTERFACE
 log = logging.getLogger(__name__)
 
 EMULATOR_KINDS = ("process", "thread")
-HIL_OPTIONS = (*(o for o in OPTIONS if o != "buses"), "emulator", "lockstep_timeout")
+HIL_OPTIONS = (
+    *(o for o in OPTIONS if o != "buses"),
+    "emulator",
+    "emulator_priority",
+    "lockstep_timeout",
+)
 #: Longest wait for the emulator process to start, answer a command or stop [s].
 PROCESS_TIMEOUT = 60.0
 
@@ -63,6 +71,7 @@ class EmulatorProcess:
         drives: Path | None = None,
         directory: Path | None = None,
         log_level: str = "warning",
+        priority: int = 0,
     ):
         self._own_directory = directory is None
         self.directory = directory or Path(tempfile.mkdtemp(prefix="imotion-hil-"))
@@ -71,6 +80,8 @@ class EmulatorProcess:
                "--log-level", log_level]  # fmt: skip
         if drives is not None:
             cmd += ["--drives", str(drives)]
+        if priority:
+            cmd += ["--realtime", str(priority)]
         self._lock = threading.Lock()
         self.process = subprocess.Popen(
             cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1
@@ -153,15 +164,22 @@ def make_hil_backend(robot: Robot, dt: float, options: dict[str, Any] | None = N
         raise ValueError(f"hal.options.emulator: one of {EMULATOR_KINDS}, got {kind!r}")
     lockstep_timeout = seconds(options, "lockstep_timeout")
     options.pop("lockstep_timeout", None)
+    priority = options.pop("emulator_priority", 0)
+    if not isinstance(priority, int) or isinstance(priority, bool) or not 0 <= priority <= 99:
+        raise ValueError(f"hal.options.emulator_priority: 0 or a SCHED_FIFO priority 1..99, "
+                         f"got {priority!r}")  # fmt: skip
     if kind == "process":
         if lockstep_timeout is not None:
             raise ValueError("hal.options.lockstep_timeout: only with emulator 'thread'")
         options.setdefault("feedback_wait", 0.2 * dt)
         options.setdefault("tpdo_timeout", 0.1)
+        options.setdefault("heartbeat_timeout", 1.0)
+    elif priority:
+        raise ValueError("hal.options.emulator_priority: only with emulator 'process'")
     s = can_settings("hil", robot, dt, options, HIL_OPTIONS)
     if kind == "process":
         drives = Path(options["drives"]) if "drives" in options else None
-        child = EmulatorProcess(robot, dt, list(s.profile.buses), drives)
+        child = EmulatorProcess(robot, dt, list(s.profile.buses), drives, priority=priority)
         try:
             buses = {b: {"interface": INTERFACE, "channel": c} for b, c in child.channels.items()}
             backend = CanBackend(robot, dt, s.profile, s.directory, buses, **s.timing)

@@ -66,3 +66,11 @@ def test_tpdo_timeout_in_seconds_raises_the_cycle_count():
     assert isinstance(hw, CanBackend) and hw.profile.tpdo_timeout_cycles == 50
     hw = make_hardware("can", robot("pa10"), 0.002, {"tpdo_timeout": 0.001})
     assert isinstance(hw, CanBackend) and hw.profile.tpdo_timeout_cycles == 3  # drives.yaml's
+
+
+def test_heartbeat_timeout_raises_both_consumer_times():
+    hw = make_hardware("can", robot("pa10"), 0.002, {"heartbeat_timeout": 0.5})
+    assert isinstance(hw, CanBackend)
+    assert hw.profile.heartbeat.master_consumer_ms == hw.profile.heartbeat.drive_consumer_ms == 500
+    hw = make_hardware("can", robot("pa10"), 0.002, {"heartbeat_timeout": 0.1})
+    assert isinstance(hw, CanBackend) and hw.profile.heartbeat.master_consumer_ms == 300

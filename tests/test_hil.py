@@ -35,6 +35,7 @@ def test_hil_process_is_the_default_and_takes_faults_over_stdin():
     assert {k["interface"] for k in map(hw.bus_kwargs, hw.profile.buses)} == {"unix"}
     assert hw.feedback_wait == pytest.approx(0.2 * 0.002)
     assert hw.profile.tpdo_timeout_cycles == 50  # 0.1 s at 500 Hz
+    assert hw.profile.heartbeat.master_consumer_ms == 1000
     try:
         hw.configure()
         state = hw.read()
@@ -81,6 +82,8 @@ def test_hil_thread_runs_the_emulator_in_process_in_lockstep():
         ({"lockstep_timeout": 1.0}, "only with emulator 'thread'"),
         ({"emulator": "thread", "lockstep_timeout": -1}, "lockstep_timeout"),
         ({"nope": 1}, "unknown keys"),
+        ({"emulator_priority": 120}, "emulator_priority"),
+        ({"emulator": "thread", "emulator_priority": 10}, "only with emulator 'process'"),
     ],
 )
 def test_bad_options(options: dict, message: str):

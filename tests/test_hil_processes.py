@@ -5,9 +5,9 @@ while both run: the recipe of docs/emulator.md.
 
 The daemon runs at 500 Hz, the emulator with the same period, each answering a bus's SYNC on
 its own (no cycle across buses that a late bus could break). Supervision is that of a
-partner process on a shared host: ``feedback_wait`` 0.4 ms and ``tpdo_timeout`` 0.1 s (0x405
-after 0.1 s without TPDO1 rather than 3 cycles: a loaded host may hold either process back
-for a few periods). Every wait is bounded; no wall-clock asserts.
+partner process on a shared host, as ``--hal hil`` sets it: ``feedback_wait`` 0.4 ms,
+``tpdo_timeout`` 0.1 s (0x405 after 0.1 s without TPDO1 rather than 3 cycles) and
+``heartbeat_timeout`` 1 s: a loaded host may hold either process back that long. Every wait is bounded; no wall-clock asserts.
 """
 
 from __future__ import annotations
@@ -110,7 +110,8 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
            "--hal", "can", "--rate", str(RATE_HZ), "--listen", address,
            "--set", "realtime.enabled=false",
            "--set", "hal_options.feedback_wait=0.0004",
-           "--set", "hal_options.tpdo_timeout=0.1"]  # fmt: skip
+           "--set", "hal_options.tpdo_timeout=0.1",
+           "--set", "hal_options.heartbeat_timeout=1.0"]  # fmt: skip
     for bus, channel in channels.items():
         cmd += ["--set", f"hal_options.buses.{bus}.interface=unix"]
         cmd += ["--set", f"hal_options.buses.{bus}.channel={channel}"]

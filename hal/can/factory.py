@@ -13,6 +13,9 @@
                       ``max(tpdo_timeout_cycles, ceil(tpdo_timeout / period))`` cycles
                       (default 0: ``tpdo_timeout_cycles`` of ``drives.yaml`` alone). For buses
                       whose partner is a process on a shared host (the emulator), not the wire
+``heartbeat_timeout`` [s] at least this for both heartbeat consumers (``master_consumer_ms``,
+                      ``drive_consumer_ms`` of ``drives.yaml`` raised to it; default 0: as
+                      the profile says). Same purpose: a host that holds a process back
 ``enable_timeout``    [s] bound of ``activate()`` (default 0.5)
 ``reset_timeout``     [s] bound of ``reset_faults()`` (default 0.5)
 ``sdo_timeout``       [s] per SDO request at set-up (default 0.3)
@@ -39,8 +42,8 @@ from hal.can.drive_profile import DriveProfile, drives_path, load_drive_profile
 log = logging.getLogger(__name__)
 
 #: Options of ``--hal can``; the numbers are seconds >= 0.
-OPTIONS = ("buses", "drives", "feedback_wait", "tpdo_timeout", "enable_timeout",
-           "reset_timeout", "sdo_timeout")  # fmt: skip
+OPTIONS = ("buses", "drives", "feedback_wait", "tpdo_timeout", "heartbeat_timeout",
+           "enable_timeout", "reset_timeout", "sdo_timeout")  # fmt: skip
 _BACKEND_SECONDS = ("feedback_wait", "enable_timeout", "reset_timeout", "sdo_timeout")
 
 
@@ -84,6 +87,15 @@ def can_settings(
     if tpdo_timeout:
         cycles = max(profile.tpdo_timeout_cycles, math.ceil(tpdo_timeout / dt - 1e-9))
         profile = profile.model_copy(update={"tpdo_timeout_cycles": cycles})
+    heartbeat_timeout = seconds(options, "heartbeat_timeout")
+    if heartbeat_timeout:
+        ms = math.ceil(heartbeat_timeout * 1e3)
+        hb = profile.heartbeat
+        hb = hb.model_copy(
+            update={"master_consumer_ms": max(hb.master_consumer_ms, ms),
+                    "drive_consumer_ms": max(hb.drive_consumer_ms, ms)}
+        )  # fmt: skip
+        profile = profile.model_copy(update={"heartbeat": hb})
     buses = options.get("buses", {})
     if not isinstance(buses, dict) or not all(isinstance(v, dict) for v in buses.values()):
         raise ValueError(f"hal.options.buses: a mapping bus -> python-can settings, got {buses!r}")

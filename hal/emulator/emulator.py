@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import os
 import select
 import threading
 import time
@@ -140,6 +141,8 @@ class DriveEmulator:
         self._threads: list[threading.Thread] = []
         self._running = threading.Event()
         self._opened = False
+        #: SCHED_FIFO priority of the threads (0: normal scheduling), set before start().
+        self.priority = 0
         #: Cost of each answered SYNC (physics step included when it took one) [s].
         self.sync_times: list[float] = []
         self.record_sync_times = False
@@ -259,6 +262,8 @@ class DriveEmulator:
                 wrapped.shutdown()
             self._master_buses = {n: [] for n in self._ports}
             self._opened = False
+        #: SCHED_FIFO priority of the threads (0: normal scheduling), set before start().
+        self.priority = 0
 
     def __enter__(self) -> DriveEmulator:
         return self
@@ -395,6 +400,7 @@ class DriveEmulator:
                 port.attach(None)
 
     def _receive_loop(self, port: Port) -> None:
+        self._realtime()
         while self._running.is_set():
             bus = port.bus
             if bus is None:
@@ -416,6 +422,7 @@ class DriveEmulator:
         """All buses in one thread: wait on their descriptors, then handle every frame waiting
         on any bus in the order they were sent; tick the heartbeats every :data:`TICK` [s]."""
         fds = {port.bus.fileno(): port for port in ports if port.bus is not None}
+        self._realtime()
         next_tick = 0.0
         while self._running.is_set():
             try:
@@ -430,7 +437,7 @@ class DriveEmulator:
                 for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
                     batch = self._handle(ports)  # the ticks below see every heartbeat
                     handled += batch
-                    if not batch:
+                    if not batch or self._clock() >= next_tick + TICK:  # ticks due too
                         break
                 took = time.monotonic() - start
                 if took > SLOW_BATCH:
@@ -440,6 +447,15 @@ class DriveEmulator:
                 if now >= next_tick:
                     self._tick(now)
                     next_tick = now + TICK
+
+    def _realtime(self) -> None:
+        """The calling thread under SCHED_FIFO at :attr:`priority` (if set)."""
+        if not self.priority:
+            return
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.priority))
+        except (AttributeError, OSError) as exc:
+            log.warning("emulator: SCHED_FIFO priority %d not in effect: %s", self.priority, exc)
 
     def _handle(self, ports: list[Port]) -> int:
         """Every frame waiting on ``ports``, in the order they were sent (their timestamps):
@@ -459,6 +475,7 @@ class DriveEmulator:
         return len(frames)
 
     def _tick_loop(self) -> None:
+        self._realtime()
         while self._running.is_set():
             with self._lock:
                 self._tick(self._clock())

@@ -70,6 +70,10 @@ def _parser() -> argparse.ArgumentParser:
         help="python-can channel of a bus (repeat per bus)",
     )  # fmt: skip
     parser.add_argument("--log-level", default="info", help="debug, info, warning, error")
+    parser.add_argument(
+        "--realtime", type=int, default=0, metavar="PRIORITY",
+        help="run the emulator thread under SCHED_FIFO at PRIORITY (1..99)",
+    )  # fmt: skip
     add_version_argument(parser)
     return parser
 
@@ -185,7 +189,10 @@ def _run(args: argparse.Namespace) -> int:
         profile = load_drive_profile(path, robot)
         channels = _channels(args, list(profile.buses))
         serve = _serve_address(args.serve) if args.serve else None
+        if not 0 <= args.realtime <= 99:
+            raise ValueError(f"--realtime {args.realtime}: a SCHED_FIFO priority 1..99")
         emulator = DriveEmulator(robot, profile, period=args.period, channels=channels)
+        emulator.priority = args.realtime
     except (ConfigError, ValueError, OSError) as exc:
         print(f"imotion-sim: {exc}", file=sys.stderr)
         return 2
