@@ -7,7 +7,8 @@ The daemon runs at 500 Hz, the emulator with the same period, each answering a b
 its own (no cycle across buses that a late bus could break). Supervision is that of a
 partner process on a shared host, as ``--hal hil`` sets it: ``feedback_wait`` 0.4 ms,
 ``tpdo_timeout`` 0.1 s (0x405 after 0.1 s without TPDO1 rather than 3 cycles) and
-``heartbeat_timeout`` 1 s: a loaded host may hold either process back that long. Every wait is bounded; no wall-clock asserts.
+``heartbeat_timeout`` 1 s: a loaded host may hold either process back that long. Every wait
+is bounded; no wall-clock asserts.
 """
 
 from __future__ import annotations
