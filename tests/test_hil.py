@@ -6,7 +6,10 @@ import time
 
 import pytest
 
+from config import ROBOTS_DIR
+from hal.can import busload
 from hal.can.backend import CanBackend
+from hal.can.drive_profile import load_drive_profile
 from hal.factory import make_hardware
 from hal.hil import EmulatorProcess
 from hal.interface import HardwareState, JointCommand
@@ -89,3 +92,13 @@ def test_hil_thread_runs_the_emulator_in_process_in_lockstep():
 def test_bad_options(options: dict, message: str):
     with pytest.raises(ValueError, match=message):
         make_hardware("hil", robot("pa10"), 0.002, options)
+
+
+def test_the_1khz_bench_profile_of_smartpal5_fits_its_buses():
+    """tools/bench_hil.py's 1 kHz split: every drive of drives.yaml, every bus under 70 %."""
+    sp5 = robot("smartpal5")
+    fast = load_drive_profile(ROBOTS_DIR / "smartpal5" / "drives-1khz.yaml", sp5)
+    normal = load_drive_profile(ROBOTS_DIR / "smartpal5" / "drives.yaml", sp5)
+    assert set(fast.drives) == set(normal.drives) and fast.rate_hz == 1000
+    loads, warning = busload.check(fast, 1000.0)
+    assert warning is None and all(load.load < busload.WARN_ABOVE for load in loads)

@@ -3,6 +3,9 @@ emulator -> MuJoCo -> TPDOs -> feedback, SmartPal V on its five buses at 250 and
 
 The emulator runs as ``--hal hil`` runs it by default: its own process (``imotion-sim`` on
 ``unix`` buses), the master without lockstep, as on real buses; faults go in over its stdin.
+Its thread runs under SCHED_FIFO (``emulator_priority``, as beside a real-time loop) so a
+loaded host does not leave the plant seconds behind the loop; and the checks wait (bounded)
+for the feedback to come to rest after the loop's motion ended, then compare.
 
 One daemon per rate for the module (loop thread + in-process gateway on 127.0.0.1, real
 gRPC, tests/daemon_support.py). Tolerances are those of HIL: the joints follow CSP targets
@@ -12,6 +15,7 @@ the wheel encoders. No wall-clock asserts: every wait is for a state, with a gen
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -31,6 +35,8 @@ HAND_TOLERANCE_MM = 0.5
 #: Vehicle odometry within these of the commanded relative move [mm], [deg].
 VEHICLE_TOLERANCE_MM = 1.0
 VEHICLE_TOLERANCE_DEG = 0.1
+#: SCHED_FIFO priority of the emulator's thread (low: above every normal task only).
+EMULATOR_PRIORITY = 10
 CART_SPEED = pb.CartesianSpeed(translation=100.0, rotation=30.0)  # mm/s, deg/s
 CART_ACCEL = pb.CartesianAccel(translation=400.0, rotation=100.0)  # mm/s², deg/s²
 
@@ -42,7 +48,8 @@ def ok(response: Any) -> Any:
 
 @pytest.fixture(scope="module", params=[250, 500], ids=lambda rate: f"{rate}Hz")
 def daemon(request: pytest.FixtureRequest) -> Iterator[TestDaemon]:
-    d = TestDaemon("smartpal5", hal="hil", rate=request.param)
+    d = TestDaemon("smartpal5", hal="hil", rate=request.param,
+                   **{"hal_options.emulator_priority": EMULATOR_PRIORITY})  # fmt: skip
     try:
         yield d
     finally:
@@ -90,9 +97,22 @@ def vehicle(d: TestDaemon) -> np.ndarray:
     return np.array(ok(d.spec_a.GetFeedbackPosJoint(request)).position)
 
 
-def settle(d: TestDaemon) -> None:
+def settle(d: TestDaemon, feedback: Any = None) -> None:
+    """The motion ended (idle, Ready) and ``feedback()`` (if given) came to rest: the same
+    value twice 0.1 s apart (bounded)."""
     assert d.wait_idle(30.0)
     wait_state(d, S.READY)
+    if feedback is not None:
+        last = [feedback()]
+
+        def still() -> bool:
+            time.sleep(0.1)
+            now = feedback()
+            moved = np.abs(now - last[0]).max()
+            last[0] = now
+            return bool(moved < 1e-3)
+
+        assert d.wait_for(still, 30.0), "feedback never came to rest"
 
 
 def test_linear_move_of_the_right_hand_reaches_its_target(daemon: TestDaemon):
@@ -110,7 +130,7 @@ def test_linear_move_of_the_right_hand_reaches_its_target(daemon: TestDaemon):
         accel=CART_ACCEL,
     )
     ok(daemon.spec_a.MoveLinearCartesianRel(request))
-    settle(daemon)
+    settle(daemon, lambda: hand(daemon))
     error = np.linalg.norm(hand(daemon) - (start + delta))
     assert error < HAND_TOLERANCE_MM, f"hand {error:.2f} mm off its target"
     assert not alarms(daemon)
@@ -124,7 +144,7 @@ def test_vehicle_move_is_seen_in_the_wheel_odometry(daemon: TestDaemon):
         unit=pb.VEHICLE, rel_pos=rel.tolist(), speed=[150.0, 15.0], accel=[300.0, 30.0]
     )
     ok(daemon.spec_a.MoveUnitRel(request))
-    settle(daemon)
+    settle(daemon, lambda: vehicle(daemon))
     moved = vehicle(daemon) - start
     assert np.linalg.norm(moved[:2] - rel[:2]) < VEHICLE_TOLERANCE_MM, moved
     assert abs(moved[2] - rel[2]) < VEHICLE_TOLERANCE_DEG, moved

@@ -51,6 +51,9 @@ def main() -> int:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--emulator", choices=("process", "thread"), default="process")
     parser.add_argument("--drives", help="another drive profile (default: the robot's)")
+    parser.add_argument("--emulator-priority", type=int, default=None,
+                        help="SCHED_FIFO priority of the emulator process's thread "
+                             "(default: 70 with realtime, else 0)")  # fmt: skip
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
@@ -60,6 +63,11 @@ def main() -> int:
     robot = load_robot(args.robot)
     dt = 1.0 / args.rate
     options: dict[str, object] = {"emulator": args.emulator}
+    priority = args.emulator_priority
+    if priority is None:
+        priority = 0 if args.no_realtime else 70  # below the loop's SCHED_FIFO 80
+    if args.emulator == "process":
+        options["emulator_priority"] = priority
     if args.drives:
         options["drives"] = args.drives
     hw = make_hardware("hil", robot, dt, options)
@@ -175,6 +183,7 @@ def main() -> int:
         "robot": args.robot,
         "rate_hz": args.rate,
         "emulator": args.emulator,
+        "emulator_priority": priority if args.emulator == "process" else None,
         "drives": args.drives,
         "load_average": [round(x, 2) for x in load],
         **master,
