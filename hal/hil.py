@@ -37,7 +37,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from controller.robot import Robot
+from controller.model.robot import Robot
 from hal.can.backend import CanBackend
 from hal.can.factory import OPTIONS, can_settings, seconds
 from hal.can.unix_bus import INTERFACE
