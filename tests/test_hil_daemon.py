@@ -37,6 +37,9 @@ VEHICLE_TOLERANCE_MM = 1.0
 VEHICLE_TOLERANCE_DEG = 0.1
 #: SCHED_FIFO priority of the emulator's thread (low: above every normal task only).
 EMULATOR_PRIORITY = 10
+#: [s] Heartbeat consumers: the loop, gateway and test share this process's GIL, and a host
+#: under stress (load 17 on 2 cores) held it more than the 1 s default (seen: 1.004 s).
+HEARTBEAT_TIMEOUT = 3.0
 CART_SPEED = pb.CartesianSpeed(translation=100.0, rotation=30.0)  # mm/s, deg/s
 CART_ACCEL = pb.CartesianAccel(translation=400.0, rotation=100.0)  # mm/s², deg/s²
 
@@ -49,7 +52,8 @@ def ok(response: Any) -> Any:
 @pytest.fixture(scope="module", params=[250, 500], ids=lambda rate: f"{rate}Hz")
 def daemon(request: pytest.FixtureRequest) -> Iterator[TestDaemon]:
     d = TestDaemon("smartpal5", hal="hil", rate=request.param,
-                   **{"hal_options.emulator_priority": EMULATOR_PRIORITY})  # fmt: skip
+                   **{"hal_options.emulator_priority": EMULATOR_PRIORITY,
+                      "hal_options.heartbeat_timeout": HEARTBEAT_TIMEOUT})  # fmt: skip
     try:
         yield d
     finally:
