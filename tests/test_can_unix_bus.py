@@ -121,3 +121,27 @@ def test_channel_names_and_errors(tmp_path, monkeypatch):
         bus_directory("")
     with pytest.raises(can.CanInitializationError, match="too long"):
         UnixBus(str(tmp_path / ("d" * 120)))
+
+
+def test_raw_frames_match_the_message_api(channel):
+    """send_raw/recv_raw (the emulator's fast path) speak the same wire frame as send/recv."""
+    with UnixBus(channel) as raw, UnixBus(channel) as plain:
+        assert raw.recv_raw() == []  # accepts the later participant
+        raw.send_raw(0x181, b"\x27\x06\x01\x02\x03\x04")
+        got = plain.recv(TIMEOUT)
+        assert got.arbitration_id == 0x181 and bytes(got.data) == b"\x27\x06\x01\x02\x03\x04"
+        assert not got.is_extended_id and got.timestamp > 0
+        plain.send(message(0x201, b"\x0f\x00\x10\x00\x00\x00"))
+        plain.send(can.Message(arbitration_id=0x1ABCDE, data=b"\x01"))  # extended: dropped there
+        plain.send(message(0x080))
+        frames = []
+        for _ in range(100):  # bounded: until both classic frames came
+            frames += raw.recv_raw()
+            if len(frames) >= 2:
+                break
+            select.select([raw], [], [], 0.05)
+        assert [(can_id, data) for _, can_id, data in frames] == [
+            (0x201, b"\x0f\x00\x10\x00\x00\x00"),
+            (0x080, b""),
+        ]
+        assert frames[0][0] <= frames[1][0]  # sender timestamps, in order
