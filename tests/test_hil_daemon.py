@@ -27,6 +27,7 @@ from controller.model.alarms import AlarmCode
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode
 from hal.can.backend import CanBackend
+from hal.can.cia402 import State
 from hal.hil import EmulatorProcess
 from tests.daemon_support import TestDaemon
 
@@ -169,6 +170,11 @@ def test_drive_fault_is_an_alarm_naming_the_drive_and_recovers(daemon: TestDaemo
         for a in found
     ), found
     assert not ok(daemon.spec_a.IsServoOn(pb.IsServoOnRequest())).is_servo_on
+    # The drive's fault reaction ends on its own (a next alarm: "drive in state fault"); clear
+    # once it has, or that alarm may come between clearAlarms and servoOn (a busy host).
+    hw = daemon.daemon.hw
+    assert isinstance(hw, CanBackend)
+    assert daemon.wait_for(lambda: hw.drive_states()["r_arm_j3"] is State.FAULT)
     ok(daemon.spec_a.ClearAlarms(pb.ClearAlarmsRequest()))
     ok(daemon.spec_a.ServoOn(pb.ServoOnRequest()))
     wait_state(daemon, S.READY)
