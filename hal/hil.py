@@ -9,8 +9,9 @@ are :class:`~hal.emulator.emulator.DriveEmulator`. Two ways to join them
   The master runs as on real buses: no lockstep, supervision on its own timing. Defaults
   fitted to a partner process on a shared host: ``feedback_wait`` 20 % of the period (read()
   lets a late TPDO come), ``tpdo_timeout`` 0.1 s (0x405 after 0.1 s without TPDO1, not
-  after 3 cycles) and ``heartbeat_timeout`` 1 s (heartbeat consumers; a busy host may hold a
-  process back for hundreds of ms). ``emulator_priority`` (1..99) runs the emulator's thread
+  after 3 cycles), ``heartbeat_timeout`` 1 s (heartbeat consumers; a busy host may hold a
+  process back for hundreds of ms) and ``sdo_timeout`` 2 s (set-up: SDO answers cross two
+  processes; 0.3 s was missed under stress). ``emulator_priority`` (1..99) runs the emulator's thread
   under SCHED_FIFO at that priority (default 0: normal scheduling), as the loop runs with
   ``realtime``. The emulator stops when the backend shuts down.
 * ``thread``: the emulator in this process, on private python-can ``virtual`` buses, in
@@ -174,6 +175,7 @@ def make_hil_backend(robot: Robot, dt: float, options: dict[str, Any] | None = N
         options.setdefault("feedback_wait", 0.2 * dt)
         options.setdefault("tpdo_timeout", 0.1)
         options.setdefault("heartbeat_timeout", 1.0)
+        options.setdefault("sdo_timeout", 2.0)
     elif priority:
         raise ValueError("hal.options.emulator_priority: only with emulator 'process'")
     s = can_settings("hil", robot, dt, options, HIL_OPTIONS)

@@ -39,6 +39,7 @@ def test_hil_process_is_the_default_and_takes_faults_over_stdin():
     assert hw.feedback_wait == pytest.approx(0.2 * 0.002)
     assert hw.profile.tpdo_timeout_cycles == 50  # 0.1 s at 500 Hz
     assert hw.profile.heartbeat.master_consumer_ms == 1000
+    assert hw.sdo_timeout == 2.0
     try:
         hw.configure()
         state = hw.read()

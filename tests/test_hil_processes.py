@@ -116,7 +116,8 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
            "--set", "realtime.enabled=false",
            "--set", "hal_options.feedback_wait=0.0004",
            "--set", "hal_options.tpdo_timeout=0.1",
-           "--set", "hal_options.heartbeat_timeout=3.0"]  # fmt: skip
+           "--set", "hal_options.heartbeat_timeout=3.0",
+           "--set", "hal_options.sdo_timeout=2.0"]  # fmt: skip
     for bus, channel in channels.items():
         cmd += ["--set", f"hal_options.buses.{bus}.interface=unix"]
         cmd += ["--set", f"hal_options.buses.{bus}.channel={channel}"]
