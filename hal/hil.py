@@ -11,8 +11,9 @@ are :class:`~hal.emulator.emulator.DriveEmulator`. Two ways to join them
   lets a late TPDO come), ``tpdo_timeout`` 0.1 s (0x405 after 0.1 s without TPDO1, not
   after 3 cycles), ``heartbeat_timeout`` 1 s (heartbeat consumers; a busy host may hold a
   process back for hundreds of ms) and ``sdo_timeout`` 2 s (set-up: SDO answers cross two
-  processes; 0.3 s was missed under stress). ``emulator_priority`` (1..99) runs the emulator's thread
-  under SCHED_FIFO at that priority (default 0: normal scheduling), as the loop runs with
+  processes; 0.3 s was missed under stress). ``emulator_priority`` (1..99) runs the
+  emulator's thread under SCHED_FIFO at that priority (default 0: normal scheduling), as
+  the loop runs with
   ``realtime``. The emulator stops when the backend shuts down.
 * ``thread``: the emulator in this process, on private python-can ``virtual`` buses, in
   deterministic lockstep: every ``read()`` waits until the emulator has answered the SYNCs
