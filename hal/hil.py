@@ -13,8 +13,7 @@ are :class:`~hal.emulator.emulator.DriveEmulator`. Two ways to join them
   process back for hundreds of ms) and ``sdo_timeout`` 2 s (set-up: SDO answers cross two
   processes; 0.3 s was missed under stress). ``emulator_priority`` (1..99) runs the
   emulator's thread under SCHED_FIFO at that priority (default 0: normal scheduling), as
-  the loop runs with
-  ``realtime``. The emulator stops when the backend shuts down.
+  the loop runs with ``realtime``. The emulator stops when the backend shuts down.
 * ``thread``: the emulator in this process, on private python-can ``virtual`` buses, in
   deterministic lockstep: every ``read()`` waits until the emulator has answered the SYNCs
   of the cycle just sent (``lockstep_timeout``, default 1 s). For tests that need it; the
