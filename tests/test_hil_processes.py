@@ -164,8 +164,8 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
             # imotion-can beside the daemon: scan one bus, a third participant on it.
             scan = subprocess.run(
                 [sys.executable, "-m", "hal.can.tool", "--robot", "smartpal5", "--bus", "body",
-                 "--interface", "unix", "--channel", channels["body"], "scan",
-                 "--listen", "0.3"],
+                 "--interface", "unix", "--channel", channels["body"],
+                 "--sdo-timeout", "2.0", "scan", "--listen", "0.3"],
                 env=env, cwd=ROOT, capture_output=True, text=True, timeout=TIMEOUT,
             )  # fmt: skip
             assert scan.returncode == 0, scan.stdout + scan.stderr
