@@ -78,7 +78,7 @@ class EmulatorProcess:
         self.directory = directory or Path(tempfile.mkdtemp(prefix="imotion-hil-"))
         cmd = [sys.executable, "-m", "hal.emulator.main", "--robot", str(robot.directory),
                "--period", repr(period), "--unix", str(self.directory),
-               "--log-level", log_level]  # fmt: skip
+               "--log-level", log_level, "--exit-on-eof"]  # fmt: skip
         if drives is not None:
             cmd += ["--drives", str(drives)]
         if priority:

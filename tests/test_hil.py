@@ -103,3 +103,15 @@ def test_the_1khz_bench_profile_of_smartpal5_fits_its_buses():
     assert set(fast.drives) == set(normal.drives) and fast.rate_hz == 1000
     loads, warning = busload.check(fast, 1000.0)
     assert warning is None and all(load.load < busload.WARN_ABOVE for load in loads)
+
+
+def test_the_emulator_process_stops_when_its_parent_goes():
+    """A parent that dies closes the child's stdin: the child stops (no orphan emulator)."""
+    pa10 = robot("pa10")
+    child = EmulatorProcess(pa10, 0.002, ["arm_a", "arm_b"])
+    try:
+        assert child.process.stdin is not None
+        child.process.stdin.close()  # what the parent's death does
+        assert child.process.wait(TIMEOUT) == 0
+    finally:
+        child.close()

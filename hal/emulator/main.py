@@ -74,6 +74,10 @@ def _parser() -> argparse.ArgumentParser:
         "--realtime", type=int, default=0, metavar="PRIORITY",
         help="run the emulator thread under SCHED_FIFO at PRIORITY (1..99)",
     )  # fmt: skip
+    parser.add_argument(
+        "--exit-on-eof", action="store_true",
+        help="stop when stdin closes (a child of --hal hil: its parent died)",
+    )  # fmt: skip
     add_version_argument(parser)
     return parser
 
@@ -154,11 +158,16 @@ def handle_command(emulator: DriveEmulator, line: str) -> str:
     return f"error unknown command {line.strip()!r}: inject KIND JOINT [k=v ...] | clear | status"
 
 
-def _read_commands(emulator: DriveEmulator, stdin: TextIO, stdout: TextIO) -> None:
+def _read_commands(
+    emulator: DriveEmulator, stdin: TextIO, stdout: TextIO, eof: threading.Event | None = None
+) -> None:
     for line in stdin:
         answer = handle_command(emulator, line)
         if answer:
             print(answer, file=stdout, flush=True)
+    if eof is not None:
+        log.info("stdin closed: stopping")
+        eof.set()
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -220,7 +229,9 @@ def _run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     reader = threading.Thread(
-        target=_read_commands, args=(emulator, sys.stdin, sys.stdout), daemon=True
+        target=_read_commands,
+        args=(emulator, sys.stdin, sys.stdout, stop if args.exit_on_eof else None),
+        daemon=True,
     )
     reader.start()
     log.info("imotion-sim running: robot %s, %d drives, period %.4f s",
