@@ -176,7 +176,8 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
             assert "OPERATIONAL" in rows["?"] and "127" in rows["?"]  # imotiond's heartbeat
 
             alarms = ok(spec_a.GetActiveAlarm(pb.GetActiveAlarmRequest())).alarms
-            assert not alarms, alarms
+            # A loaded host may make the loop run late: a WARNING (loop health), not a fault.
+            assert not [a for a in alarms if not (a.type == pb.WARNING and a.code == 0x411)], alarms
             assert state() == S.READY
         finally:
             channel.close()
