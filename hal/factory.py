@@ -5,7 +5,7 @@ name   backend
 =====  ========================================================================
 sim    MuJoCo stand-in (:class:`hal.mujoco_backend.MujocoBackend`), lock-step
 ideal  perfect drives (:class:`hal.ideal_backend.IdealBackend`), for tests
-hil    CAN backend talking to the in-process drive emulator over a virtual bus
+hil    CAN backend and the drive emulator in its own process (:mod:`hal.hil`)
 can    CAN backend on the buses of the robot's drive profile
 =====  ========================================================================
 """
@@ -37,7 +37,11 @@ def make_hardware(
         from hal.ideal_backend import IdealBackend
 
         return IdealBackend(robot, dt)
-    if kind in ("hil", "can"):
+    if kind == "hil":
+        from hal.hil import make_hil_backend
+
+        return make_hil_backend(robot, dt, options)
+    if kind == "can":
         from hal.can.factory import make_can_backend
 
         return make_can_backend(kind, robot, dt, options)

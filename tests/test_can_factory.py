@@ -1,4 +1,5 @@
-"""hal.can.factory via hal.factory.make_hardware: can/hil, options, bus-load refusal."""
+"""hal.can.factory via hal.factory.make_hardware: can options, bus-load refusal, the TPDO
+timeout in time (hil: tests/test_hil.py)."""
 
 from __future__ import annotations
 
@@ -32,7 +33,8 @@ def test_can_backend_with_bus_overrides():
         ({"feedback_wait": -1}, "feedback_wait"),
         ({"buses": {"ghost": {}}}, "unknown bus 'ghost'"),
         ({"buses": 3}, "hal.options.buses"),
-        ({"lockstep_timeout": 1.0}, "only for hal 'hil'"),
+        ({"lockstep_timeout": 1.0}, "unknown keys"),
+        ({"tpdo_timeout": "x"}, "tpdo_timeout"),
     ],
 )
 def test_bad_options(options: dict, message: str):
@@ -59,19 +61,16 @@ def test_busy_profile_warns(caplog: pytest.LogCaptureFixture):
     assert "above 70 %" in caplog.text
 
 
-def test_hil_runs_the_emulator_in_process():
-    hw = make_hardware("hil", robot("pa10"), 0.002)
-    assert isinstance(hw, CanBackend) and hw.emulator is not None
-    try:
-        hw.configure()
-        for _ in range(3):
-            state = hw.read()
-            hw.write(type("C", (), {"position": state.position})())  # type: ignore[arg-type]
-        hw.activate()
-        assert hw.state is HardwareState.ACTIVE
-        assert hw.lockstep is hw.emulator
-        assert hw.emulator.sync_counts() == hw.syncs_sent  # every SYNC answered by read()
-        assert hw.lockstep_timeouts == 0
-    finally:
-        hw.shutdown()
-    assert hw.state is HardwareState.FINALIZED
+def test_tpdo_timeout_in_seconds_raises_the_cycle_count():
+    hw = make_hardware("can", robot("pa10"), 0.002, {"tpdo_timeout": 0.1})
+    assert isinstance(hw, CanBackend) and hw.profile.tpdo_timeout_cycles == 50
+    hw = make_hardware("can", robot("pa10"), 0.002, {"tpdo_timeout": 0.001})
+    assert isinstance(hw, CanBackend) and hw.profile.tpdo_timeout_cycles == 3  # drives.yaml's
+
+
+def test_heartbeat_timeout_raises_both_consumer_times():
+    hw = make_hardware("can", robot("pa10"), 0.002, {"heartbeat_timeout": 0.5})
+    assert isinstance(hw, CanBackend)
+    assert hw.profile.heartbeat.master_consumer_ms == hw.profile.heartbeat.drive_consumer_ms == 500
+    hw = make_hardware("can", robot("pa10"), 0.002, {"heartbeat_timeout": 0.1})
+    assert isinstance(hw, CanBackend) and hw.profile.heartbeat.master_consumer_ms == 300

@@ -1,4 +1,4 @@
-"""DriveEmulator: lockstep across buses, the MuJoCo plant (joints and wheels), construction."""
+"""DriveEmulator: each bus answered on its own SYNC, the MuJoCo plant, construction."""
 
 from __future__ import annotations
 
@@ -35,34 +35,52 @@ def _operational(emulator: DriveEmulator) -> None:
         assert drive.sm.state is PowerState.OPERATION_ENABLED
 
 
-def test_a_cycle_closes_once_every_bus_had_its_sync(pa10):
+def test_each_bus_is_answered_on_its_own_sync(pa10):
     clock = FakeClock()
     with DriveEmulator(pa10, clock=clock) as emulator:
         emulator.open()
         a, b = FrameMaster(emulator, "arm_a", clock), FrameMaster(emulator, "arm_b", clock)
         a.nmt(0x01)
         b.nmt(0x01)
-        for _ in range(2):  # both buses take part
-            a.send(0x080)
-            b.send(0x080)
-            a.exchange()
-        assert emulator.cycles == 2
         a.send(0x080)
-        assert tpdo1(a.exchange(), 1) is None  # waits for arm_b
-        assert emulator.cycles == 2
+        assert tpdo1(a.exchange(), 1) is not None  # at once: no wait for arm_b
         b.send(0x080)
         assert tpdo1(b.exchange(), 5) is not None
-        assert tpdo1(a.frames(), 1) is not None
-        assert emulator.cycles == 3
-        assert emulator.sim_time == pytest.approx(3 * emulator.period)
-        answered = []
-        for _ in range(3):  # arm_b stops: one late cycle, then arm_a alone
+        assert emulator.cycles == 0  # the first round: nothing to step yet
+        for _ in range(3):  # arm_b goes silent: arm_a's SYNCs go on, each a new round
             a.send(0x080)
-            answered.append(len([m for m in a.exchange() if m.arbitration_id == 0x181]))
-        assert answered == [0, 2, 1]
-        assert emulator.cycles == 6
+            assert tpdo1(a.exchange(), 1) is not None
+        assert emulator.cycles == 3
+        b.send(0x080)  # arm_b back: part of the round arm_a opened
+        assert tpdo1(b.exchange(), 5) is not None
+        assert emulator.cycles == 3
+        b.send(0x080)  # arm_b first this time: it opens the next round
+        b.exchange()
+        a.send(0x080)
+        a.exchange()
+        assert emulator.cycles == 4
+        assert emulator.sim_time == pytest.approx(4 * emulator.period)
         a.close()
         b.close()
+
+
+def test_a_target_acts_over_the_period_up_to_the_next_sync(pa10):
+    """TPDOs sample at SYNC: the position answering round k is that of round k - 1's target."""
+    clock = FakeClock()
+    with DriveEmulator(pa10, clock=clock) as emulator:
+        emulator.open()
+        a = FrameMaster(emulator, "arm_a", clock)
+        a.nmt(0x01)
+        position = tpdo1(a.cycle(), 1)[1]
+        for controlword in (0x06, 0x07, 0x0F):
+            status = tpdo1(a.cycle({1: (controlword, position)}), 1)
+        assert status is not None and status[0] & 0x6F == 0x27  # operation enabled at once
+        target = position + 2000  # counts: well inside the servo's pull
+        moved = [tpdo1(a.cycle({1: (0x0F, target)}), 1)[1] for _ in range(40)]
+        assert abs(moved[0] - position) < 20  # the new target has not acted yet
+        assert abs(moved[1] - position) > abs(moved[0] - position)
+        assert abs(moved[-1] - target) < 100
+        a.close()
 
 
 def test_on_sync_steps_the_physics_one_period_and_holds_when_disabled(pa10):
@@ -160,37 +178,23 @@ def test_construction_errors_name_the_problem(pa10, tmp_path):
         emulator.open_master_bus("can9")
 
 
-def test_wait_answered_closes_the_cycle_of_a_master_round(pa10):
+def test_wait_answered_counts_the_syncs_handled_per_bus(pa10):
     clock = FakeClock()
     with DriveEmulator(pa10, clock=clock) as emulator:
         emulator.open()
         a, b = FrameMaster(emulator, "arm_a", clock), FrameMaster(emulator, "arm_b", clock)
         a.nmt(0x01)
-        b.send(0x000, [0x01, 0])  # arm_b starts in the same round, after arm_a's SYNC
         a.send(0x080)
-        b.send(0x080)
-        emulator.poll()  # arm_a's SYNC closes a cycle alone; arm_b's opens the next one
-        assert emulator.cycles == 1
-        assert emulator.sync_counts() == {"arm_a": 1, "arm_b": 1}
-        assert tpdo1(b.frames(), 5) is None
-        assert not emulator.wait_answered({"arm_a": 2}, 0.0)
-        assert emulator.wait_answered({"arm_a": 1, "arm_b": 1}, 0.0)  # closes it
-        assert emulator.cycles == 2
-        assert tpdo1(b.frames(), 5) is not None
-        a.frames()
-        for _ in range(3):  # in phase from now on: one cycle per round, both buses answered
-            a.send(0x080)
-            b.send(0x080)
-            emulator.poll()
-            assert tpdo1(a.frames(), 1) is not None and tpdo1(b.frames(), 5) is not None
-        assert emulator.cycles == 5
-        b.nmt(0x80)  # pre-operational: its SYNCs are handled but open no cycle
-        b.send(0x080)
+        b.send(0x080)  # arm_b pre-operational: handled, nobody answers
         emulator.poll()
-        assert emulator.cycles == 5 and emulator.sync_counts()["arm_b"] == 5
+        assert emulator.sync_counts() == {"arm_a": 1, "arm_b": 1}
+        assert not emulator.wait_answered({"arm_a": 2}, 0.0)
+        assert emulator.wait_answered({"arm_a": 1, "arm_b": 1}, 0.0)
+        assert tpdo1(a.frames(), 1) is not None and tpdo1(b.frames(), 5) is None
         emulator.inject("bus_off", bus="arm_a")
         emulator.process("arm_a", can.Message(arbitration_id=0x080, is_extended_id=False))
-        assert emulator.sync_counts()["arm_a"] == 5  # ignored while bus-off, but handled
+        assert emulator.sync_counts()["arm_a"] == 2  # ignored while bus-off, but handled
+        assert a.frames() == []
         a.close()
         b.close()
 
@@ -218,6 +222,32 @@ def test_threads_answer_a_sync_with_its_tpdos_already_on_the_bus(pa10):
                 }
                 assert tpdo == nodes[name]
         assert emulator.sync_counts() == sent
-        assert emulator.cycles in (20, 21)  # 21: a bus's NMT start came after another's SYNC
         for bus in buses.values():
             bus.shutdown()
+
+
+def test_unix_buses_are_served_by_one_select_thread(pa10, tmp_path):
+    channels = {bus: ("unix", str(tmp_path / bus)) for bus in ("arm_a", "arm_b")}
+    with DriveEmulator(pa10, channels=channels) as emulator:
+        emulator.start()
+        assert [t.name for t in emulator._threads] == ["emu"]
+        buses = {name: can.Bus(interface="unix", channel=ch) for name, (_, ch) in channels.items()}
+        nodes = {
+            name: {c.node_id for c in emulator.profile.drives.values() if c.bus == name}
+            for name in buses
+        }
+        try:
+            for bus in buses.values():
+                bus.send(can.Message(arbitration_id=0x000, data=[0x01, 0], is_extended_id=False))
+            for _ in range(5):
+                for name, bus in buses.items():
+                    bus.send(can.Message(arbitration_id=0x080, is_extended_id=False))
+                    seen: set[int] = set()
+                    while seen != nodes[name]:
+                        msg = bus.recv(5.0)
+                        assert msg is not None, f"bus {name}: TPDO1 of {nodes[name] - seen} missing"
+                        if msg.arbitration_id & 0x780 == 0x180:
+                            seen.add(msg.arbitration_id - 0x180)
+        finally:
+            for bus in buses.values():
+                bus.shutdown()

@@ -22,10 +22,12 @@ def _frame(can_id: int, data: bytes = b"") -> can.Message:
     return can.Message(arbitration_id=can_id, data=data, is_extended_id=False)
 
 
-def test_cross_process_nmt_sync_tpdo_heartbeat_and_sigterm():
+@pytest.mark.parametrize("interface", ["unix", "remote"])
+def test_cross_process_nmt_sync_tpdo_heartbeat_and_sigterm(interface: str, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
+    where = ["--unix", str(tmp_path)] if interface == "unix" else ["--serve", "127.0.0.1:0"]
     process = subprocess.Popen(
-        [sys.executable, "-m", "hal.emulator.main", "--robot", "pa10", "--serve", "127.0.0.1:0"],
+        [sys.executable, "-m", "hal.emulator.main", "--robot", "pa10", *where],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env=env, cwd=ROOT,
     )  # fmt: skip
@@ -35,9 +37,10 @@ def test_cross_process_nmt_sync_tpdo_heartbeat_and_sigterm():
         lines = [process.stdout.readline() for _ in range(2)]
         fields = [dict(item.split("=", 1) for item in line.split()) for line in lines]
         assert [f["bus"] for f in fields] == ["arm_a", "arm_b"]
-        assert all(f["interface"] == "remote" for f in fields)
-        assert all(f["channel"].startswith("ws://127.0.0.1:") for f in fields)
-        bus = can.Bus(interface="remote", channel=fields[0]["channel"])
+        assert all(f["interface"] == interface for f in fields)
+        prefix = str(tmp_path) if interface == "unix" else "ws://127.0.0.1:"
+        assert all(f["channel"].startswith(prefix) for f in fields)
+        bus = can.Bus(interface=interface, channel=fields[0]["channel"])
         bus.send(_frame(0x601, bytes([0x2B, 0x17, 0x10, 0, 20, 0, 0, 0])))  # 0x1017 = 20 ms
         bus.send(_frame(0x000, bytes([0x01, 0])))  # NMT start all
         seen: dict[int, bytes] = {}
@@ -78,6 +81,10 @@ def test_bad_arguments_exit_2_with_the_reason(capsys):
     assert "unknown bus 'nope'" in capsys.readouterr().err
     assert main(["--robot", "pa10", "--serve", "localhost"]) == 2
     assert "HOST:PORT" in capsys.readouterr().err
+    assert main(["--robot", "pa10", "--serve", "127.0.0.1:0", "--unix", "x"]) == 2
+    assert "not both" in capsys.readouterr().err
+    assert main(["--robot", "pa10", "--unix", "x", "--realtime", "120"]) == 2
+    assert "SCHED_FIFO" in capsys.readouterr().err
 
 
 def test_a_bus_that_cannot_be_opened_exits_2(capsys):

@@ -1,19 +1,22 @@
-"""HIL across processes: ``imotion-sim`` serves SmartPal V's five buses over python-can-remote
-on 127.0.0.1, ``imotiond --hal can`` joins them with ``--set hal_options.buses.<bus>...``
-(interface ``remote``), and ``imotion-can scan`` looks at a bus while both run.
+"""HIL across processes: ``imotion-sim --unix DIR`` puts SmartPal V's five buses on the
+``unix`` transport (hal.can.unix_bus), ``imotiond --hal can`` joins them with ``--set
+hal_options.buses.<bus>...`` (interface ``unix``), and ``imotion-can scan`` looks at a bus
+while both run: the recipe of docs/emulator.md.
 
-The daemon runs at 100 Hz with ``hal_options.feedback_wait`` = 5 ms: across the bridge the
-TPDOs of a cycle come back 3 ms after the SYNCs (median; p99 6 ms, 9 ms seen; every frame
-crosses two websockets and four threads on 2 shared cores), more than a 250 Hz period, and
-``--hal can`` supervision stays strict (3 cycles without TPDO1 = 0x405). The emulator runs
-with the same period (``--period 0.01``). Every wait is bounded; no wall-clock asserts.
+The daemon runs at 500 Hz, the emulator with the same period, each answering a bus's SYNC on
+its own (no cycle across buses that a late bus could break). Supervision is that of a
+partner process on a shared host, as ``--hal hil`` sets it: ``feedback_wait`` 0.4 ms,
+``tpdo_timeout`` 0.1 s (0x405 after 0.1 s without TPDO1 rather than 3 cycles) and
+``heartbeat_timeout`` 3 s (``--hal hil``'s default is 1 s; under stress, load 17 on 2
+cores, a process was held back 1 s): a loaded host may hold either process back that long. The
+emulator's thread runs under SCHED_FIFO (``--realtime 10``), as beside a real-time loop. Every wait
+is bounded; no wall-clock asserts.
 """
 
 from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -32,15 +35,10 @@ from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import ReturnCode
 
 ROOT = Path(__file__).resolve().parents[1]
-RATE_HZ = 100
-#: Every process start, answer and exit is bounded by this [s] (never asserted as a time).
-TIMEOUT = 60.0
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+RATE_HZ = 500
+#: Every process start, answer and exit is bounded by this [s] (never asserted as a time;
+#: under stress, load 18 on 2 cores, the daemon's start-up took over 60 s).
+TIMEOUT = 180.0
 
 
 def readline(stream: IO[str], timeout: float = TIMEOUT) -> str:
@@ -86,9 +84,10 @@ def env() -> dict[str, str]:
 
 @pytest.fixture
 def sim(env: dict[str, str], tmp_path: Path) -> Iterator[tuple[subprocess.Popen[str], dict]]:
-    """``imotion-sim`` serving every bus; yields (process, bus -> served channel)."""
+    """``imotion-sim`` on unix buses; yields (process, bus -> channel)."""
     cmd = [sys.executable, "-m", "hal.emulator.main", "--robot", "smartpal5",
-           "--serve", "127.0.0.1:0", "--period", f"{1 / RATE_HZ:g}"]  # fmt: skip
+           "--unix", str(tmp_path / "buses"), "--period", f"{1 / RATE_HZ:g}",
+           "--realtime", "10"]  # fmt: skip
     with open(tmp_path / "sim.log", "w") as log:
         process = subprocess.Popen(
             cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log, text=True,
@@ -101,7 +100,7 @@ def sim(env: dict[str, str], tmp_path: Path) -> Iterator[tuple[subprocess.Popen[
                 line = readline(process.stdout)
                 assert line, f"imotion-sim gave no bus line (log: {tmp_path / 'sim.log'})"
                 fields = dict(item.split("=", 1) for item in line.split())
-                assert fields["interface"] == "remote"
+                assert fields["interface"] == "unix"
                 channels[fields["bus"]] = fields["channel"]
             yield process, channels
         finally:
@@ -111,13 +110,16 @@ def sim(env: dict[str, str], tmp_path: Path) -> Iterator[tuple[subprocess.Popen[
 
 def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path: Path):
     sim_process, channels = sim
-    address = f"127.0.0.1:{free_port()}"
+    address = f"unix:{tmp_path / 'api.sock'}"  # no port to pick
     cmd = [sys.executable, "-m", "controller.daemon.main", "--robot", "smartpal5",
            "--hal", "can", "--rate", str(RATE_HZ), "--listen", address,
            "--set", "realtime.enabled=false",
-           "--set", "hal_options.feedback_wait=0.005"]  # fmt: skip
+           "--set", "hal_options.feedback_wait=0.0004",
+           "--set", "hal_options.tpdo_timeout=0.1",
+           "--set", "hal_options.heartbeat_timeout=3.0",
+           "--set", "hal_options.sdo_timeout=2.0"]  # fmt: skip
     for bus, channel in channels.items():
-        cmd += ["--set", f"hal_options.buses.{bus}.interface=remote"]
+        cmd += ["--set", f"hal_options.buses.{bus}.interface=unix"]
         cmd += ["--set", f"hal_options.buses.{bus}.channel={channel}"]
     log_path = tmp_path / "imotiond.log"
     with open(log_path, "w") as log:
@@ -148,14 +150,22 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
             move = pb.MoveUnitRelRequest(unit=pb.RIGHT_ARM, rel_pos=rel, speed=[20], accel=[60])
             ok(spec_a.MoveUnitRel(move))
             assert wait_for(lambda: not spec_a.IsMoving(pb.IsMovingRequest()).is_moving)
-            after = np.array(ok(spec_a.GetFeedbackPosJoint(arm)).position)
+            joints = [np.array(ok(spec_a.GetFeedbackPosJoint(arm)).position)]
+
+            def at_rest() -> bool:  # the feedback the same twice 0.1 s apart
+                time.sleep(0.1)
+                joints.append(np.array(ok(spec_a.GetFeedbackPosJoint(arm)).position))
+                return bool(np.abs(joints[-1] - joints[-2]).max() < 1e-4)
+
+            assert wait_for(at_rest)
+            after = joints[-1]
             np.testing.assert_allclose(after - before, rel, atol=0.05)  # deg, from the drives
 
-            # imotion-can beside the daemon: scan one bus through its own bridge connection.
+            # imotion-can beside the daemon: scan one bus, a third participant on it.
             scan = subprocess.run(
                 [sys.executable, "-m", "hal.can.tool", "--robot", "smartpal5", "--bus", "body",
-                 "--interface", "remote", "--channel", channels["body"], "scan",
-                 "--listen", "0.3"],
+                 "--interface", "unix", "--channel", channels["body"],
+                 "--sdo-timeout", "2.0", "scan", "--listen", "0.3"],
                 env=env, cwd=ROOT, capture_output=True, text=True, timeout=TIMEOUT,
             )  # fmt: skip
             assert scan.returncode == 0, scan.stdout + scan.stderr
@@ -165,9 +175,10 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
                 assert "OPERATIONAL" in rows[drive] and "0x00000402" in rows[drive], scan.stdout
             assert "OPERATIONAL" in rows["?"] and "127" in rows["?"]  # imotiond's heartbeat
 
-            assert state() == S.READY
             alarms = ok(spec_a.GetActiveAlarm(pb.GetActiveAlarmRequest())).alarms
-            assert not alarms, alarms
+            # A loaded host may make the loop run late: a WARNING (loop health), not a fault.
+            assert not [a for a in alarms if not (a.type == pb.WARNING and a.code == 0x411)], alarms
+            assert state() == S.READY
         finally:
             channel.close()
             code = stop(daemon)

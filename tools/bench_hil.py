@@ -1,25 +1,27 @@
 #!/usr/bin/env python3
-"""HIL benchmark: motion core + CAN backend + in-process drive emulator at a fixed rate.
+"""HIL benchmark: motion core + CAN backend + drive emulator at a fixed rate.
 
-Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500] [--seconds 30]
-                                 [--no-realtime]
+Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500] [--seconds 60]
+                                 [--emulator process|thread] [--drives PATH] [--no-realtime]
 
-``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`): the
-emulator's threads answer every SYNC over python-can ``virtual`` buses, one per profile bus,
-and simulate the robot in MuJoCo. The loop runs the motion mix of tools/bench_loop.py (hand
-lines, elbow swings, joint PTP, waist bend, vehicle out and back). Prints cycle compute time
-(p50/p99/max, read + QP + write), deadline misses, frames per second and load per bus
-(worst-case bit lengths of the frames actually sent and received), and as the last line a
-JSON object. On this 2-core machine the emulator shares the CPUs with the loop: its figures
-are an upper bound of what the master alone costs. The master runs in lockstep with the
-emulator (``read()`` waits until every SYNC of the cycle is answered): a late emulator thread
-costs time (an overrun), never a missing TPDO; ``lockstep_timeouts`` counts waits that gave up.
+``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By default
+the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`): the
+master runs as on real buses, no lockstep, supervision on its own timing; ``--emulator
+thread`` puts it in this process in lockstep (one GIL for both). The loop runs the motion mix
+of tools/bench_loop.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
+back). Prints cycle compute time (p50/p99/max, read + QP + write), wake latency, deadline
+misses (overruns), alarms, frames per second and load per bus (worst-case bit lengths of the
+frames actually sent and received), the master's own share per cycle (``read()`` +
+``write()``: thread CPU time, i.e. encode, send, receive, decode, supervision without the
+waits; and wall time, waits included), the load average, and as the last line a JSON object.
+``--drives`` runs another drive profile (e.g. a bus split for 1 kHz).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import threading
 import time
@@ -29,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
+import numpy as np  # noqa: E402
 from bench_loop import script  # noqa: E402
 
 from controller.control.core import MotionCore  # noqa: E402
@@ -38,13 +41,19 @@ from controller.motion.motions import Motion  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
 from hal.can.backend import CanBackend  # noqa: E402
 from hal.factory import make_hardware  # noqa: E402
+from hal.interface import JointCommand, JointState  # noqa: E402
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="smartpal5")
     parser.add_argument("--rate", type=float, default=500.0)
-    parser.add_argument("--seconds", type=float, default=30.0)
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--emulator", choices=("process", "thread"), default="process")
+    parser.add_argument("--drives", help="another drive profile (default: the robot's)")
+    parser.add_argument("--emulator-priority", type=int, default=None,
+                        help="SCHED_FIFO priority of the emulator process's thread "
+                             "(default: 70 with realtime, else 0)")  # fmt: skip
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
@@ -53,8 +62,35 @@ def main() -> int:
 
     robot = load_robot(args.robot)
     dt = 1.0 / args.rate
-    hw = make_hardware("hil", robot, dt)
+    options: dict[str, object] = {"emulator": args.emulator}
+    priority = args.emulator_priority
+    if priority is None:
+        priority = 0 if args.no_realtime else 70  # below the loop's SCHED_FIFO 80
+    if args.emulator == "process":
+        options["emulator_priority"] = priority
+    if args.drives:
+        options["drives"] = args.drives
+    hw = make_hardware("hil", robot, dt, options)
     assert isinstance(hw, CanBackend)
+    master_cpu: list[float] = []
+    master_wall: list[float] = []
+    timing = {"cpu": 0.0, "wall": 0.0}
+    read, write = hw.read, hw.write
+
+    def timed_read() -> JointState:
+        c, w = time.thread_time(), time.perf_counter()
+        state = read()
+        timing["cpu"], timing["wall"] = time.thread_time() - c, time.perf_counter() - w
+        return state
+
+    def timed_write(command: JointCommand) -> None:
+        c, w = time.thread_time(), time.perf_counter()
+        write(command)
+        master_cpu.append(timing["cpu"] + time.thread_time() - c)
+        master_wall.append(timing["wall"] + time.perf_counter() - w)
+
+    hw.read = timed_read  # type: ignore[method-assign]
+    hw.write = timed_write  # type: ignore[method-assign]
     core = MotionCore(robot, hw, dt)
     # Configure now; servo on from inside the running loop, as the daemon does: enabled
     # drives expect the cycle's heartbeat (a loop that stalls lets them time out and stop).
@@ -107,8 +143,19 @@ def main() -> int:
             "load_percent": round(100.0 * bits / elapsed / cfg.bitrate, 2),
         }
     hw.shutdown()
+    load = os.getloadavg()
+    skip = int(args.rate)  # the first second: set-up, enabling
+    cpu = np.array(master_cpu[skip:] or [0.0]) * 1e6
+    wall = np.array(master_wall[skip:] or [0.0]) * 1e6
+    master = {
+        "master_cpu_us_p50": round(float(np.percentile(cpu, 50)), 1),
+        "master_cpu_us_p99": round(float(np.percentile(cpu, 99)), 1),
+        "master_wall_us_p50": round(float(np.percentile(wall, 50)), 1),
+        "master_wall_us_p99": round(float(np.percentile(wall, 99)), 1),
+    }
     print(
         f"HIL {args.robot}, {args.rate:g} Hz, {args.seconds:g} s, {len(buses)} buses, "
+        f"emulator {args.emulator}, "
         f"{done['motions']} motions ({done['skipped']} skipped), state {core.state.value}"
     )
     for name in ("compute_us", "wake_latency_us"):
@@ -121,6 +168,12 @@ def main() -> int:
         f"late by > half a period {stats['late_by_more_than_half_period']}, "
         f"lockstep timeouts {hw.lockstep_timeouts}"
     )
+    print(
+        f"master read+write per cycle: CPU p50 {master['master_cpu_us_p50']:.1f} "
+        f"p99 {master['master_cpu_us_p99']:.1f} us; wall p50 {master['master_wall_us_p50']:.1f} "
+        f"p99 {master['master_wall_us_p99']:.1f} us"
+    )
+    print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} ({os.cpu_count()} CPUs)")
     for name, figures in buses.items():
         print(f"bus {name:15s} {figures['frames_per_s']:8.1f} frames/s  "
               f"{figures['load_percent']:5.1f} % load")  # fmt: skip
@@ -129,6 +182,11 @@ def main() -> int:
     result = {
         "robot": args.robot,
         "rate_hz": args.rate,
+        "emulator": args.emulator,
+        "emulator_priority": priority if args.emulator == "process" else None,
+        "drives": args.drives,
+        "load_average": [round(x, 2) for x in load],
+        **master,
         "seconds": args.seconds,
         "motions": done["motions"],
         "alarms": len(core.alarms),

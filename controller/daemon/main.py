@@ -116,8 +116,6 @@ class Daemon:
         self.runtime = make_runtime_dir(cfg)
         self._own_runtime = cfg.runtime_dir is None
         self.hw = make_hardware(cfg.hal, self.robot, cfg.period, options)
-        if cfg.power_on_at_start:
-            self.hw.configure()
         self.controller = Controller(
             self.robot,
             self.hw,
@@ -134,6 +132,10 @@ class Daemon:
                 cfg.loop.rate_hz,
                 cfg.blackbox.seconds + cfg.blackbox.after_s,
             )
+        if cfg.power_on_at_start:
+            # After the controller is built: its models load in C calls that hold the GIL
+            # for hundreds of ms, which would starve the CAN master's heartbeat thread.
+            self.hw.configure()
         if cfg.loop.stats_file is not None:
             loop = self.controller.loop
             loop.stats = CycleLog(loop.period, loop.stats.capacity)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -39,8 +39,16 @@ class IdealOptions(_Options):
 
 
 class HilOptions(_Options):
-    """``hal: hil``: the CAN backend on the in-process drive emulator (hal/can/factory.py)."""
+    """``hal: hil``: the CAN backend and the drive emulator (hal/hil.py)."""
 
+    #: ``process`` (default: its own process on unix buses) or ``thread`` (lockstep).
+    emulator: Literal["process", "thread"] | None = None
+    #: SCHED_FIFO priority of the emulator process's thread (0: normal scheduling).
+    emulator_priority: int | None = Field(default=None, ge=0, le=99, strict=True)
+    #: 0x405 only after TPDO1 is missing this long too [s].
+    tpdo_timeout: Seconds = _Seconds
+    #: Both heartbeat consumers at least this long [s].
+    heartbeat_timeout: Seconds = _Seconds
     #: Another drive profile (default config/robots/<id>/drives.yaml).
     drives: Path | None = None
     #: How long read() may wait for missing TPDOs [s].
@@ -62,6 +70,8 @@ class CanOptions(_Options):
     buses: dict[str, dict[str, Any]] = {}
     drives: Path | None = None
     feedback_wait: Seconds = _Seconds
+    tpdo_timeout: Seconds = _Seconds
+    heartbeat_timeout: Seconds = _Seconds
     enable_timeout: Seconds = _Seconds
     reset_timeout: Seconds = _Seconds
     sdo_timeout: Seconds = _Seconds

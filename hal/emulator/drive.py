@@ -3,11 +3,9 @@
 What it does, per CiA 301 / CiA 402 and ``docs/can.md``:
 
 * **Object dictionary and SDO**: a :class:`canopen.LocalNode` built from the drive's EDS
-  serves SDO (expedited and segmented). Live objects (statusword 0x6041, position 0x6064,
-  velocity 0x606C, error code 0x603F, error register 0x1001, error history 0x1003, ...) are
-  read from the drive, not from the store. Writes are checked: modes of operation other
-  than 8 (CSP), a non-zero write to 0x1003:0, an unmappable PDO entry or a PDO over 64 bits
-  are refused with the standard abort codes.
+  serves SDO (expedited and segmented); what reads and writes do is
+  :mod:`hal.emulator.drive_objects` (a mixin of this class), the numbers are
+  :mod:`hal.emulator.codes`.
 * **NMT** (own slave; canopen's ``NmtSlave`` heartbeat runs on a wall-clock thread and could
   not be stepped): boot-up message, PRE-OPERATIONAL, OPERATIONAL, STOPPED, reset node (whole
   dictionary) and reset communication (0x1000-0x1FFF). SDO and EMCY are served in
@@ -44,42 +42,48 @@ from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 
-from canopen import LocalNode, objectdictionary
-from canopen.sdo import SdoAbortedError
+from canopen import LocalNode
 
 from hal.can.scaling import I32_MAX, I32_MIN, delta_i32, wrap_i32
 from hal.emulator import pdo
+from hal.emulator.codes import (
+    EMCY_COMMUNICATION,
+    EMCY_DEVICE_SPECIFIC,
+    EMCY_ERROR_RESET,
+    EMCY_FOLLOWING_ERROR,
+    EMCY_HEARTBEAT,
+    ERR_COMMUNICATION,
+    ERR_GENERIC,
+    ERR_MANUFACTURER,
+    ERR_PROFILE,
+    FOLLOWING_ERROR_OFF,
+    NMT_BOOTUP,
+    NMT_OPERATIONAL,
+    NMT_PRE_OP,
+    NMT_PRE_OPERATIONAL,
+    NMT_RESET_COMM,
+    NMT_RESET_NODE,
+    NMT_START,
+    NMT_STOP,
+    NMT_STOPPED,
+    REACTION_TIMEOUT,
+)
+from hal.emulator.drive_objects import DriveObjects, SdoSink
 from hal.emulator.drive_state import DriveStateMachine, PowerState
+
+__all__ = [
+    "EMCY_DEVICE_SPECIFIC",
+    "EMCY_FOLLOWING_ERROR",
+    "ERR_GENERIC",
+    "ERR_MANUFACTURER",
+    "ERR_PROFILE",
+    "NMT_OPERATIONAL",
+    "EmulatedDrive",
+]
 
 log = logging.getLogger(__name__)
 
-# NMT states (heartbeat byte) and commands.
-NMT_BOOTUP = 0x00
-NMT_STOPPED = 0x04
-NMT_OPERATIONAL = 0x05
-NMT_PRE_OPERATIONAL = 0x7F
-_NMT_START, _NMT_STOP, _NMT_PRE_OP, _NMT_RESET_NODE, _NMT_RESET_COMM = 0x01, 0x02, 0x80, 0x81, 0x82
-
-# EMCY codes (CiA 301 / CiA 402) and error register bits.
-EMCY_ERROR_RESET = 0x0000
-EMCY_HEARTBEAT = 0x8130
-EMCY_COMMUNICATION = 0x8100
-EMCY_FOLLOWING_ERROR = 0x8611
-EMCY_DEVICE_SPECIFIC = 0xFF00
-ERR_GENERIC = 0x01
-ERR_COMMUNICATION = 0x10
-ERR_PROFILE = 0x20
-ERR_MANUFACTURER = 0x80
-
-CSP_MODE = 8
-#: A fault reaction or quick stop no SYNC ends finishes after this long [s].
-REACTION_TIMEOUT = 0.05
-FOLLOWING_ERROR_OFF = 0xFFFF_FFFF
-ABORT_VALUE_RANGE = 0x0609_0030
-ABORT_WRITE_READ_ONLY = 0x0601_0002
 _EMCY = struct.Struct("<HB5s")
-_TPDOS = ((0x1800, 0x1A00), (0x1801, 0x1A01), (0x1802, 0x1A02), (0x1803, 0x1A03))
-_RPDOS = ((0x1400, 0x1600), (0x1401, 0x1601), (0x1402, 0x1602), (0x1403, 0x1603))
 
 _REACTIONS = (PowerState.FAULT_REACTION_ACTIVE, PowerState.QUICK_STOP_ACTIVE)
 
@@ -87,7 +91,7 @@ _REACTIONS = (PowerState.FAULT_REACTION_ACTIVE, PowerState.QUICK_STOP_ACTIVE)
 Sender = Callable[[int, bytes], None]
 
 
-class EmulatedDrive:
+class EmulatedDrive(DriveObjects):
     """The slave ``node_id`` named ``name`` (a joint or wheel), object dictionary from ``eds``."""
 
     def __init__(self, name: str, node_id: int, eds: str | Path, send: Sender):
@@ -127,8 +131,10 @@ class EmulatedDrive:
         self.target = 0
         self._hold = 0
         self._controlword = 0
-        self._rpdo_fresh = False
         self._rpdo_data: list[bytes | None] = []
+        self._rpdo_waiting: list[int] = []
+        self._rpdo_codecs: list[Callable[[bytes], bool] | None] = []
+        self._tpdo_codecs: list[tuple[int, int, Callable[[], bytes]]] = []
         self._delayed: deque[tuple[int, int, bytes]] = deque()
         self._syncs = 0
         self._now = 0.0
@@ -158,7 +164,7 @@ class EmulatedDrive:
         self._reset_communication()
         self._reset_application()
         # SDO answers go through the drive's sender, so injected faults apply to them too.
-        self.node.sdo.network = _SdoSink(self)  # type: ignore[assignment]
+        self.node.sdo.network = SdoSink(self._send)  # type: ignore[assignment]
 
     # ------------------------------------------------------------------------- routing
 
@@ -185,19 +191,19 @@ class EmulatedDrive:
         if self.silent or len(data) < 2 or data[1] not in (0, self.node_id):
             return
         command = data[0]
-        if command == _NMT_START:
+        if command == NMT_START:
             self.nmt_state = NMT_OPERATIONAL
-        elif command == _NMT_STOP:
+        elif command == NMT_STOP:
             if self.nmt_state != NMT_STOPPED:
                 self.nmt_state = NMT_STOPPED
                 self._abort_connection("NMT stop")
-        elif command == _NMT_PRE_OP:
+        elif command == NMT_PRE_OP:
             self.nmt_state = NMT_PRE_OPERATIONAL
-        elif command == _NMT_RESET_NODE:
+        elif command == NMT_RESET_NODE:
             self._reset_communication()
             self._reset_application()
             self._boot_up()
-        elif command == _NMT_RESET_COMM:
+        elif command == NMT_RESET_COMM:
             self._reset_communication()
             self._boot_up()
 
@@ -225,7 +231,9 @@ class EmulatedDrive:
     def _rpdo_handler(self, i: int) -> Callable[[bytes, float], None]:
         def handler(data: bytes, now: float) -> None:
             if not self.silent and self.nmt_state == NMT_OPERATIONAL:
-                self._rpdo_data[i] = bytes(data)
+                self._rpdo_data[i] = data
+                if i not in self._rpdo_waiting:
+                    self._rpdo_waiting.append(i)
 
         return handler
 
@@ -237,28 +245,14 @@ class EmulatedDrive:
             self.sm.complete_reactions()
             self._reaction_cycles = 0
         fresh_target = False
-        if self.nmt_state == NMT_OPERATIONAL:
-            for i, data in enumerate(self._rpdo_data):
-                layout = self._rpdo_layouts[i]
-                if data is None or layout is None or not layout.enabled:
-                    continue
-                self._rpdo_data[i] = None
-                if len(data) < layout.packer.size:
-                    log.warning(
-                        "drive %s: RPDO 0x%03X has %d bytes, its mapping needs %d: ignored",
-                        self.name, layout.cob_id, len(data), layout.packer.size,
-                    )  # fmt: skip
-                    continue
-                values = layout.packer.unpack_from(data)
-                for (index, subindex), value in zip(layout.entries, values, strict=True):
-                    if index == 0x607A:
-                        self.target = int(value)
-                        fresh_target = True
-                    elif index == 0x6040:
-                        self._apply_controlword(int(value))
-                    else:
-                        var = _variable(self.node, index, subindex)
-                        self.node.data_store.setdefault(index, {})[subindex] = var.encode_raw(value)
+        if self._rpdo_waiting and self.nmt_state == NMT_OPERATIONAL:
+            codecs, received = self._rpdo_codecs, self._rpdo_data
+            for i in self._rpdo_waiting:
+                data, codec = received[i], codecs[i]
+                received[i] = None
+                if data is not None and codec is not None and codec(data):
+                    fresh_target = True
+            self._rpdo_waiting.clear()
         self._after_state_change(fresh_target)
 
     def setpoint(self) -> tuple[int, bool]:
@@ -274,10 +268,14 @@ class EmulatedDrive:
         """Power-on position [counts]: actual, target and hold all there."""
         self.actual = self.target = self._hold = wrap_i32(position)
 
-    def sample(self, position: int, velocity: int, sim_time: float) -> None:
-        """After the physics step: new actual values, supervision, TPDOs (OPERATIONAL)."""
+    def move(self, position: int, velocity: int) -> None:
+        """After a physics step: actual position [counts] and velocity [counts/s]."""
         self.actual = wrap_i32(position)
         self.velocity = min(max(int(velocity), I32_MIN), I32_MAX)
+
+    def sample(self, sim_time: float) -> None:
+        """SYNC, after :meth:`latch`: supervision at ``sim_time`` [s], then the TPDOs due
+        (OPERATIONAL) with the values of this instant."""
         self._syncs += 1
         if self.silent:
             return
@@ -286,17 +284,13 @@ class EmulatedDrive:
         self._reaction_cycles = self._reaction_cycles + 1 if reacting else 0
         if self.nmt_state != NMT_OPERATIONAL:
             return
-        for layout in self._tpdo_layouts:
-            if layout is None or not layout.enabled:
-                continue
-            n = layout.trans_type
+        for cob_id, n, encode in self._tpdo_codecs:
             if 1 <= n <= 240 and self._syncs % n:
                 continue
-            data = layout.packer.pack(*[self._value(i, s) for i, s in layout.entries])
             if self.tpdo_delay > 0:
-                self._delayed.append((self._syncs + self.tpdo_delay, layout.cob_id, data))
+                self._delayed.append((self._syncs + self.tpdo_delay, cob_id, encode()))
             else:
-                self._send(layout.cob_id, data)
+                self._send(cob_id, encode())
         while self._delayed and (self._delayed[0][0] <= self._syncs or not self.tpdo_delay):
             _, cob_id, data = self._delayed.popleft()
             self._send(cob_id, data)
@@ -400,124 +394,6 @@ class EmulatedDrive:
         self._after_state_change(False)
         log.info("drive %s: %s, abort connection option %d", self.name, why, option)
 
-    def _record_error(self, code: int, register: int) -> None:
-        self._error_code = code & 0xFFFF
-        self._error_register |= register & 0xFF
-        self._history.appendleft(code & 0xFFFF)
-
-    def _clear_error(self) -> None:
-        self._error_code = 0
-        self._error_register = 0
-
-    def _value(self, index: int, subindex: int) -> int:
-        """Current value of a mapped object."""
-        if index == 0x6041:
-            return self.sm.statusword
-        if index == 0x6064:
-            return self.actual
-        if index == 0x606C:
-            return self.velocity
-        result = self._on_read(index, subindex)
-        if result is not None:
-            return int(result)
-        var = _variable(self.node, index, subindex)
-        return int(var.decode_raw(self.node.get_data(index, subindex)))
-
-    def _on_read(self, index: int, subindex: int, **_: object) -> int | None:
-        if index == 0x6041:
-            return self.sm.statusword
-        if index == 0x6064:
-            return self.actual
-        if index == 0x606C:
-            return self.velocity
-        if index == 0x607A:
-            return self.target
-        if index == 0x6040:
-            return self._controlword
-        if index == 0x6061:
-            return CSP_MODE
-        if index == 0x603F:
-            return self._error_code
-        if index == 0x1001:
-            return self._error_register
-        if index == 0x1003:
-            if subindex == 0:
-                return len(self._history)
-            return self._history[subindex - 1] if subindex <= len(self._history) else 0
-        return None
-
-    def _on_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
-        """Check and apply an SDO write (runs before canopen stores ``data``)."""
-        assert isinstance(od, objectdictionary.ODVariable)
-        value = od.decode_raw(data)
-        if index == 0x6040:
-            self._apply_controlword(int(value))
-            self._after_state_change(False)
-        elif index == 0x607A:
-            self.target = int(value)
-        elif index == 0x6060:
-            if value != CSP_MODE:
-                raise SdoAbortedError(ABORT_VALUE_RANGE)
-        elif index == 0x1003:
-            if subindex != 0 or value != 0:
-                raise SdoAbortedError(ABORT_VALUE_RANGE)
-            self._history.clear()
-        elif index == 0x1017:
-            self._producer_period = int(value) / 1000.0
-            self._next_heartbeat = self._now
-        elif index == 0x1016 and subindex == 1:
-            self._set_consumer(int(value))
-        elif index == 0x1005:
-            self._sync_cob = int(value) & 0x7FF
-            self.on_routes_changed()
-        elif index == 0x1014:
-            self._emcy_cob = int(value)
-        elif index == 0x605A:
-            self.sm.quick_stop_option = int(value)
-        elif index == 0x6065:
-            self._fe_window = int(value)
-        elif index == 0x6066:
-            self._fe_time = int(value) / 1000.0
-        elif index == 0x6007:
-            self._abort_option = int(value)
-        elif 0x1600 <= index <= 0x17FF or 0x1A00 <= index <= 0x1BFF:
-            if subindex == 0:
-                pdo.check_mapping_count(self.node, index, int(value))
-            else:
-                pdo.check_mapping_entry(self.node, int(value))
-            self._pending_pdo = True  # compiled by refresh(), once canopen stored the value
-        elif 0x1400 <= index <= 0x15FF or 0x1800 <= index <= 0x19FF:
-            self._pending_pdo = True
-
-    def _reset_communication(self) -> None:
-        """Communication objects (0x1000-0x1FFF) back to the EDS values."""
-        for index in [i for i in self.node.data_store if i < 0x2000]:
-            del self.node.data_store[index]
-        self._history = deque(maxlen=_history_length(self.node))
-        self._error_code = 0
-        self._error_register = 0
-        self._sync_cob = self._od_int(0x1005, 0) & 0x7FF
-        self._emcy_cob = self._od_int(0x1014, 0)
-        self._producer_period = self._od_int(0x1017, 0) / 1000.0
-        self._next_heartbeat = self._now
-        self._set_consumer(self._od_int(0x1016, 1))
-        self._compile_pdos()
-
-    def _reset_application(self) -> None:
-        """Device-profile objects back to the EDS values; the state machine boots."""
-        for index in [i for i in self.node.data_store if i >= 0x2000]:
-            del self.node.data_store[index]
-        self.sm = _rebooted(self.sm)
-        self.sm.quick_stop_option = self._od_int(0x605A, 0, default=2)
-        self._fe_window = self._od_int(0x6065, 0, default=FOLLOWING_ERROR_OFF)
-        self._fe_time = self._od_int(0x6066, 0, default=0) / 1000.0
-        self._abort_option = self._od_int(0x6007, 0, default=1)
-        self._outside_since = None
-        self._controlword = 0
-        self.target = self.actual
-        self._hold = self.actual
-        self._last_state = self.sm.state
-
     def _boot_up(self) -> None:
         self.nmt_state = NMT_PRE_OPERATIONAL
         if not self.silent:
@@ -528,75 +404,3 @@ class EmulatedDrive:
     def boot(self) -> None:
         """Power on: boot-up message, then PRE-OPERATIONAL."""
         self._boot_up()
-
-    def _set_consumer(self, value: int) -> None:
-        node, ms = (value >> 16) & 0x7F, value & 0xFFFF
-        self._consumer_node = node if ms else 0
-        self._consumer_period = ms / 1000.0 if node else 0.0
-        self._master_seen = None
-        self._master_lost = False
-        self.on_routes_changed()
-
-    def _compile_pdos(self) -> None:
-        od = self.node.object_dictionary
-        self._rpdo_layouts = [
-            pdo.read_layout(self.node, c, m) if c in od and m in od else None for c, m in _RPDOS
-        ]
-        self._tpdo_layouts = [
-            pdo.read_layout(self.node, c, m) if c in od and m in od else None for c, m in _TPDOS
-        ]
-        self._rpdo_data = [None] * len(self._rpdo_layouts)
-        self._pending_pdo = False
-
-    def refresh(self) -> bool:
-        """Recompile PDO layouts after SDO writes to them; True when they changed."""
-        if not self._pending_pdo:
-            return False
-        try:
-            self._compile_pdos()
-        except SdoAbortedError as exc:
-            log.warning("drive %s: inconsistent PDO mapping (%s): PDOs kept", self.name, exc)
-            self._pending_pdo = False
-            return False
-        return True
-
-    def _od_int(self, index: int, subindex: int, default: int = 0) -> int:
-        if index not in self.node.object_dictionary:
-            return default
-        try:
-            var = _variable(self.node, index, subindex)
-            return int(var.decode_raw(self.node.get_data(index, subindex)))
-        except (KeyError, SdoAbortedError):
-            return default
-
-
-class _SdoSink:
-    """What the SDO server sends through: the drive's own sender (so faults apply)."""
-
-    def __init__(self, drive: EmulatedDrive):
-        self._drive = drive
-
-    def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
-        self._drive._send(can_id, bytes(data))
-
-
-def _variable(node: LocalNode, index: int, subindex: int) -> objectdictionary.ODVariable:
-    obj = node.object_dictionary[index]
-    if isinstance(obj, objectdictionary.ODVariable):
-        return obj
-    return obj[subindex]
-
-
-def _history_length(node: LocalNode) -> int:
-    obj = node.object_dictionary.get(0x1003)
-    if obj is None or isinstance(obj, objectdictionary.ODVariable):
-        return 1
-    return max(1, len([s for s in obj.subindices if s > 0]))
-
-
-def _rebooted(sm: DriveStateMachine) -> DriveStateMachine:
-    refuse = sm.refuse_enable
-    sm = DriveStateMachine()
-    sm.refuse_enable = refuse
-    sm.boot()
-    return sm

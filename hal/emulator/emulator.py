@@ -1,41 +1,41 @@
-"""All drives of a robot, emulated on its CAN buses and driving one MuJoCo model in lockstep.
+"""All drives of a robot, emulated on its CAN buses and driving one MuJoCo model.
 
 :class:`DriveEmulator` reads the robot's drive profile (``config/robots/<id>/drives.yaml``),
 puts one :class:`~hal.emulator.drive.EmulatedDrive` per drive on a python-can bus per profile
-bus, and moves the joints in a :class:`~hal.emulator.plant.Plant` (MuJoCo).
+bus (:class:`~hal.emulator.port.Port`), and moves the joints in a
+:class:`~hal.emulator.plant.Plant` (MuJoCo).
 
-**Lockstep.** Simulated time advances only on SYNC, one period per cycle. A cycle spans every
-bus: on a bus's SYNC its drives latch their RPDOs; once every bus that the cycle waits for
-has had its SYNC, the physics steps one period and every synced drive samples and sends its
-TPDOs. A cycle waits for a bus when one of its drives is OPERATIONAL (the others do not
-answer a SYNC anyway), it is not bus-off, and its master is alive: a second SYNC on a bus
-before the others had theirs closes the pending cycle and marks the silent buses gone until
-their next SYNC. So a master that sends RPDOs on every bus and then one SYNC per bus gets,
-on each bus, TPDOs that describe the state at the end of the period it just commanded; a
-master that only uses some of the buses is not slowed by the others.
+**Each bus on its own SYNC.** Simulated time advances one period per round of SYNCs. A SYNC
+on a bus is answered at once and on that bus alone: if this bus already had a SYNC since the
+last physics step, a new round has begun and the physics steps one period first (with the
+set-points latched at the previous round's SYNCs, every bus's); then the bus's drives latch
+their RPDOs (state machine, new targets) and sample: their TPDOs carry the statusword after
+the controlword and the position at this SYNC, as a real drive samples at SYNC. No bus ever
+waits for another: a bus whose SYNC comes late, or never, costs nothing to the others (the
+physics steps on whichever bus's SYNC opens the next round). The targets of round ``k`` act
+over the period that ends at round ``k + 1``'s SYNCs, so a master reads the position of its
+previous set-point (feedback one cycle behind the command, as on real CSP drives).
 
-**Master rounds (in process).** Per bus the emulator counts the SYNC frames (COB-ID 0x080 or
-a drive's 0x1005) it has handled, ignored ones included (bus-off, nobody listening). A
-master in the same process (``--hal hil``) counts the SYNCs it sent and calls
-:meth:`DriveEmulator.wait_answered`: once every one of them is handled, a cycle still open
-is closed there (it waits for a bus whose SYNC of this round went into the previous cycle,
-e.g. because that bus's drives became OPERATIONAL in between), so every SYNC of the round is
-answered and the barrier can never slip a cycle. The master gets the feedback of exactly
-the cycle it commanded, however late the threads run.
+**Master rounds (in process).** Per bus the emulator counts the SYNC frames it has handled,
+ignored ones included (bus-off). A master in the same process (``--hal hil`` with
+``emulator: thread``) counts the SYNCs it sent and calls :meth:`DriveEmulator.wait_answered`:
+once it returns True every SYNC is answered and its TPDOs are on the bus.
 
 **Buses.** ``channels`` maps a profile bus name to python-can ``(interface, channel)``;
 by default each bus is a ``virtual`` channel private to this emulator (``hil-<n>-<bus>``),
 and :meth:`DriveEmulator.open_master_bus` opens the master's end of it (wrapped for bus-off
-injection). ``imotion-sim`` (:mod:`hal.emulator.main`) serves those channels to other
-processes.
+injection). ``imotion-sim`` (:mod:`hal.emulator.main`) puts them on ``unix`` buses
+(:mod:`hal.can.unix_bus`) for a master in another process.
 
 **Two ways to run it.**
 
-* Threaded (the daemon, ``imotion-sim``): :meth:`DriveEmulator.start` runs one receive thread
-  per bus and a ticker for heartbeats; :meth:`DriveEmulator.stop` ends them.
+* Threaded (``--hal hil``, ``imotion-sim``): :meth:`DriveEmulator.start`. Buses with a file
+  descriptor (``unix``, ``socketcan``) are served by one thread that waits on all of them
+  with ``select`` and ticks the heartbeats; others (``virtual``) get one receive thread each
+  and a ticker. :meth:`DriveEmulator.stop` ends them.
 * Synchronous (tests): :meth:`DriveEmulator.open`, then :meth:`DriveEmulator.poll` handles
   every frame waiting on the buses and ticks the heartbeats at ``now`` (the emulator's clock,
-  injectable), without any thread. :meth:`DriveEmulator.on_sync` runs one cycle directly.
+  injectable), without any thread. :meth:`DriveEmulator.on_sync` runs one round directly.
 
 Every public method takes the emulator's lock, so injections and the API are safe from other
 threads while the threads run.
@@ -45,6 +45,8 @@ from __future__ import annotations
 
 import itertools
 import logging
+import os
+import select
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -56,67 +58,26 @@ import numpy as np
 
 from controller.model.robot import Robot, load_robot
 from hal.can.drive_profile import DriveProfile, drives_path, eds_path, load_drive_profile
-from hal.can.scaling import wrap_i32
-from hal.emulator.drive import NMT_OPERATIONAL, EmulatedDrive
+from hal.emulator.drive import EmulatedDrive
 from hal.emulator.faults import ActiveFault, FaultableBus, FaultInjector
 from hal.emulator.plant import Plant
+from hal.emulator.port import Port
 
 log = logging.getLogger(__name__)
 
-Handler = Callable[[bytes, float], None]
 #: The SYNC COB-ID of the predefined connection set (a drive's 0x1005 may name another).
 SYNC_COB_ID = 0x080
 _instances = itertools.count(1)
+#: Heartbeat tick period of the threads [s].
+TICK = 0.005
+#: A batch of frames that took longer than this [s] is logged (the emulator fell behind).
+SLOW_BATCH = 0.02
+#: Batches handled at most before the heartbeats are ticked (frames keep coming).
+CATCH_UP = 20
 
 
-class _Port:
-    """One bus as the emulator sees it: its python-can bus, drives and routing table."""
-
-    def __init__(self, name: str, interface: str, channel: str, drives: list[EmulatedDrive]):
-        self.name = name
-        self.interface = interface
-        self.channel = channel
-        self.drives = drives
-        #: Plant index (profile order) of each drive of this bus.
-        self.indices: list[int] = []
-        self.bus: can.BusABC | None = None
-        self.bus_off = False
-        self.routes: dict[int, list[Handler]] = {}
-        #: SYNC COB-ID -> positions in :attr:`drives` of the drives it synchronises.
-        self.sync_groups: dict[int, list[int]] = {}
-        #: Per drive: latched at a SYNC of the open cycle.
-        self.pending: list[bool] = []
-        self.dirty = True
-        self.synced = False
-        #: False once a cycle had to close without this bus's SYNC (its master is gone).
-        self.alive = True
-        self.send_errors = 0
-        #: SYNC frames handled on this bus (latched, or ignored: bus-off, nobody listens).
-        self.syncs = 0
-
-    def send(self, can_id: int, data: bytes) -> None:
-        bus = self.bus
-        if bus is None or self.bus_off:
-            return
-        try:
-            bus.send(can.Message(arbitration_id=can_id, data=data, is_extended_id=False))
-        except can.CanError as exc:
-            self.send_errors += 1
-            if self.send_errors in (1, 10, 100) or self.send_errors % 1000 == 0:
-                log.warning("bus %s: send 0x%03X failed (%d so far): %s",
-                            self.name, can_id, self.send_errors, exc)  # fmt: skip
-
-    def rebuild(self) -> None:
-        routes: dict[int, list[Handler]] = {}
-        for drive in self.drives:
-            for can_id, handler in drive.routes().items():
-                routes.setdefault(can_id, []).append(handler)
-        self.routes = routes
-        groups: dict[int, list[int]] = {}
-        for k, drive in enumerate(self.drives):
-            groups.setdefault(drive.sync_cob_id, []).append(k)
-        self.sync_groups = groups
-        self.dirty = False
+def _stamp(frame: tuple[float, int, int, bytes]) -> float:
+    return frame[0]
 
 
 class DriveEmulator:
@@ -153,10 +114,10 @@ class DriveEmulator:
                 f"{', '.join(self.profile.buses)})"
             )
         self.drives: dict[str, EmulatedDrive] = {}
-        self._ports: dict[str, _Port] = {}
+        self._ports: dict[str, Port] = {}
         for bus_name in self.profile.buses:
             interface, channel = overrides.get(bus_name, ("virtual", f"hil-{instance}-{bus_name}"))
-            self._ports[bus_name] = _Port(bus_name, interface, channel, [])
+            self._ports[bus_name] = Port(bus_name, interface, channel, [])
         directory = drives_path(self.robot).parent
         for name, config in self.profile.drives.items():
             port = self._ports[config.bus]
@@ -166,8 +127,6 @@ class DriveEmulator:
             port.drives.append(drive)
             port.indices.append(len(self.drives))
             self.drives[name] = drive
-        for port in self._ports.values():
-            port.pending = [False] * len(port.drives)
         self._order = list(self.drives.values())  # plant order = profile order
         self.plant = Plant(self.robot, self.profile, self.period)
         self.plant.start()
@@ -182,9 +141,11 @@ class DriveEmulator:
         self._threads: list[threading.Thread] = []
         self._running = threading.Event()
         self._opened = False
-        #: Per-cycle cost of the last cycles (latch excluded) [s], for benchmarks.
-        self.cycle_times: list[float] = []
-        self.record_cycle_times = False
+        #: SCHED_FIFO priority of the threads (0: normal scheduling), set before start().
+        self.priority = 0
+        #: Cost of each answered SYNC (physics step included when it took one) [s].
+        self.sync_times: list[float] = []
+        self.record_sync_times = False
 
     # ----------------------------------------------------------------------------- queries
 
@@ -195,7 +156,7 @@ class DriveEmulator:
 
     @property
     def cycles(self) -> int:
-        """Completed cycles (physics steps) since start."""
+        """Physics steps (rounds) since start."""
         return self._cycles
 
     @property
@@ -209,18 +170,13 @@ class DriveEmulator:
 
     def wait_answered(self, sent: Mapping[str, int], timeout: float) -> bool:
         """Wait up to ``timeout`` [s] until every bus of ``sent`` has handled that many SYNC
-        frames, then close the cycle they opened if it is still open: on True every one of
-        them is answered (its TPDOs are on the bus). False on timeout (threads stalled or
-        stopped)."""
+        frames: on True every one of them is answered (its TPDOs are on the bus). False on
+        timeout (threads stalled or stopped)."""
         ports = [(self._ports[name], count) for name, count in sent.items()]
         with self._handled:
-            if not self._handled.wait_for(
+            return self._handled.wait_for(
                 lambda: all(port.syncs >= count for port, count in ports), timeout
-            ):
-                return False
-            if any(p.synced for p in self._ports.values()):
-                self._complete_cycle()
-            return True
+            )
 
     def drive_on(self, bus: str, node_id: int) -> EmulatedDrive:
         for drive in self._ports[bus].drives:
@@ -238,10 +194,10 @@ class DriveEmulator:
             given = dict(buses or {})
             for name, port in self._ports.items():
                 if name in given:
-                    port.bus = given[name]
+                    port.attach(given[name])
                     continue
                 try:
-                    port.bus = can.Bus(interface=port.interface, channel=port.channel)
+                    port.attach(can.Bus(interface=port.interface, channel=port.channel))
                 except Exception as exc:
                     self._close_buses()
                     raise OSError(
@@ -268,17 +224,25 @@ class DriveEmulator:
         return wrapped
 
     def start(self) -> None:
-        """Open the buses if needed and run the receive threads and the heartbeat ticker."""
+        """Open the buses if needed and run the threads (module doc)."""
         self.open()
         if self._running.is_set():
             return
         self._running.set()
-        for port in self._ports.values():
-            thread = threading.Thread(
-                target=self._receive_loop, args=(port,), name=f"emu-{port.name}", daemon=True
+        ports = list(self._ports.values())
+        if all(port.selectable() for port in ports):
+            self._threads.append(
+                threading.Thread(target=self._select_loop, args=(ports,), name="emu", daemon=True)
             )
-            self._threads.append(thread)
-        self._threads.append(threading.Thread(target=self._tick_loop, name="emu-tick", daemon=True))
+        else:
+            for port in ports:
+                thread = threading.Thread(
+                    target=self._receive_loop, args=(port,), name=f"emu-{port.name}", daemon=True
+                )
+                self._threads.append(thread)
+            self._threads.append(
+                threading.Thread(target=self._tick_loop, name="emu-tick", daemon=True)
+            )
         for thread in self._threads:
             thread.start()
 
@@ -298,6 +262,8 @@ class DriveEmulator:
                 wrapped.shutdown()
             self._master_buses = {n: [] for n in self._ports}
             self._opened = False
+        #: SCHED_FIFO priority of the threads (0: normal scheduling), set before start().
+        self.priority = 0
 
     def __enter__(self) -> DriveEmulator:
         return self
@@ -308,21 +274,11 @@ class DriveEmulator:
     # ------------------------------------------------------------------- synchronous API
 
     def poll(self, now: float | None = None) -> int:
-        """Tick heartbeats at ``now``, then handle every frame waiting on every bus; how many."""
-        handled = 0
+        """Tick heartbeats at ``now``, then handle every frame waiting on every bus, in the
+        order they were sent; how many."""
         with self._lock:
             self._tick(self._clock() if now is None else now)
-            for port in self._ports.values():
-                bus = port.bus
-                if bus is None:
-                    continue
-                while True:
-                    msg = bus.recv(0.0)
-                    if msg is None:
-                        break
-                    self._process(port, msg)
-                    handled += 1
-        return handled
+            return self._handle(list(self._ports.values()))
 
     def process(self, bus: str, msg: can.Message) -> None:
         """Handle one frame as if received on ``bus``."""
@@ -335,12 +291,14 @@ class DriveEmulator:
             self._tick(self._clock() if now is None else now)
 
     def on_sync(self, buses: Iterable[str] | None = None) -> None:
-        """One full cycle without frames: SYNC on ``buses`` (default: all), then the step."""
+        """One round without frames: the physics steps one period, then every drive of
+        ``buses`` (default: all) has its SYNC (latch, sample, TPDOs)."""
         with self._lock:
+            self._step()
             for name in buses if buses is not None else self._ports:
-                self._sync(self._ports[name])
-            if any(p.synced for p in self._ports.values()):
-                self._complete_cycle()
+                port = self._ports[name]
+                if not port.bus_off:
+                    self._sync(port, list(range(len(port.drives))))
 
     # ----------------------------------------------------------------------- injection
 
@@ -361,57 +319,47 @@ class DriveEmulator:
 
     # -------------------------------------------------------------------------- internals
 
-    def _process(self, port: _Port, msg: can.Message) -> None:
+    def _process(self, port: Port, msg: can.Message) -> None:
         if msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id:
             return
+        self._frame(port, msg.arbitration_id, bytes(msg.data))
+
+    def _frame(self, port: Port, can_id: int, data: bytes) -> None:
+        """One classic data frame ``can_id`` with ``data`` received on ``port``."""
         if port.dirty:
             port.rebuild()
-        can_id = msg.arbitration_id
         group = port.sync_groups.get(can_id)
-        is_sync = group is not None or can_id == SYNC_COB_ID
-        if port.bus_off or (is_sync and (group is None or not self._operational(port))):
-            if is_sync:  # ignored: handled, nothing will come of it
-                port.syncs += 1
-                self._handled.notify_all()
-            return
-        if group is not None:
-            self._sync(port, group)
-            port.syncs += 1
-            if all(p.synced for p in self._ports.values() if self._expects(p)):
-                self._complete_cycle()
+        if group is not None or can_id == SYNC_COB_ID:
+            if group is not None and not port.bus_off:
+                start = time.perf_counter()
+                self._sync(port, group)
+                if self.record_sync_times:
+                    self.sync_times.append(time.perf_counter() - start)
+            port.syncs += 1  # handled, even when ignored (bus-off, no drive on this COB-ID)
             self._handled.notify_all()
+            return
+        if port.bus_off:
             return
         handlers = port.routes.get(can_id)
         if handlers:
             now = self._clock()
-            data = bytes(msg.data)
             for handler in handlers:
                 handler(data, now)
 
-    def _sync(self, port: _Port, group: list[int] | None = None) -> None:
-        if port.bus_off:
-            return
-        if port.dirty:
-            port.rebuild()
-        if group is None:
-            group = list(range(len(port.drives)))
-        pending = port.pending
-        if port.synced and any(pending[k] for k in group):
-            # A second SYNC before the other buses had theirs: they are gone; close the cycle.
-            for other in self._ports.values():
-                if not other.synced and self._expects(other):
-                    other.alive = False
-                    log.warning("bus %s: no SYNC this cycle; cycles go on without it", other.name)
-            self._complete_cycle()
-        port.alive = True
-        drives = port.drives
-        for k in group:
-            drives[k].latch()
-            pending[k] = True
+    def _sync(self, port: Port, group: list[int]) -> None:
+        """SYNC on ``port`` for its drives ``group`` (module doc: a new round steps first)."""
+        if port.synced:
+            self._step()
         port.synced = True
+        drives = port.drives
+        sim_time = self.plant.sim_time
+        for k in group:
+            drive = drives[k]
+            drive.latch()
+            drive.sample(sim_time)
 
-    def _complete_cycle(self) -> None:
-        start = time.perf_counter()
+    def _step(self) -> None:
+        """The physics of one period with every drive's latched set-point; new actuals."""
         order = self._order
         setpoints = np.empty(len(order), dtype=np.int64)
         torque = np.empty(len(order), dtype=bool)
@@ -420,36 +368,17 @@ class DriveEmulator:
         self.plant.step(setpoints, torque)
         positions = self.plant.position_counts().tolist()
         velocities = self.plant.velocity_counts().tolist()
-        sim_time = self.plant.sim_time
+        for drive, position, velocity in zip(order, positions, velocities, strict=True):
+            drive.move(position, velocity)
         for port in self._ports.values():
             port.synced = False
-            pending = port.pending
-            for k, (i, drive) in enumerate(zip(port.indices, port.drives, strict=True)):
-                if pending[k]:
-                    drive.sample(positions[i], velocities[i], sim_time)
-                    pending[k] = False
-                else:  # no SYNC for this drive this cycle: its joint moved, nothing is sent
-                    drive.actual, drive.velocity = wrap_i32(positions[i]), 0
         self._cycles += 1
-        if self.record_cycle_times:
-            self.cycle_times.append(time.perf_counter() - start)
-
-    @staticmethod
-    def _operational(port: _Port) -> bool:
-        """One of the bus's drives is OPERATIONAL (only those answer a SYNC)."""
-        return any(d.nmt_state == NMT_OPERATIONAL for d in port.drives)
-
-    @classmethod
-    def _expects(cls, port: _Port) -> bool:
-        """Whether a cycle waits for this bus's SYNC: it is up, its master alive, and one of
-        its drives OPERATIONAL. A SYNC on a bus without one opens no cycle."""
-        return port.alive and not port.bus_off and cls._operational(port)
 
     def _tick(self, now: float) -> None:
         for drive in self._order:
             drive.tick(now)
 
-    def _routes_changed(self, port: _Port) -> Callable[[], None]:
+    def _routes_changed(self, port: Port) -> Callable[[], None]:
         def mark() -> None:
             port.dirty = True
 
@@ -458,8 +387,6 @@ class DriveEmulator:
     def _set_bus_off(self, bus: str, on: bool) -> None:
         port = self._ports[bus]
         port.bus_off = on
-        port.synced = False
-        port.pending = [False] * len(port.drives)
         for wrapped in self._master_buses[bus]:
             wrapped.bus_off = on
 
@@ -470,9 +397,10 @@ class DriveEmulator:
                     port.bus.shutdown()
                 except Exception as exc:  # a broken remote connection must not block close()
                     log.warning("bus %s: shutdown failed: %s", port.name, exc)
-                port.bus = None
+                port.attach(None)
 
-    def _receive_loop(self, port: _Port) -> None:
+    def _receive_loop(self, port: Port) -> None:
+        self._realtime()
         while self._running.is_set():
             bus = port.bus
             if bus is None:
@@ -490,8 +418,65 @@ class DriveEmulator:
                 except Exception:  # one bad frame must not end the bus
                     log.exception("bus %s: frame 0x%03X failed", port.name, msg.arbitration_id)
 
+    def _select_loop(self, ports: list[Port]) -> None:
+        """All buses in one thread: wait on their descriptors, then handle every frame waiting
+        on any bus in the order they were sent; tick the heartbeats every :data:`TICK` [s]."""
+        fds = {port.bus.fileno(): port for port in ports if port.bus is not None}
+        self._realtime()
+        next_tick = 0.0
+        while self._running.is_set():
+            try:
+                ready, _, _ = select.select(list(fds), [], [], TICK)
+            except (OSError, ValueError) as exc:
+                if self._running.is_set():
+                    log.error("emulator: select failed, the emulator stops: %s", exc)
+                return
+            with self._lock:
+                start = time.monotonic()
+                handled = 0
+                for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
+                    batch = self._handle(ports)  # the ticks below see every heartbeat
+                    handled += batch
+                    if not batch or self._clock() >= next_tick + TICK:  # ticks due too
+                        break
+                took = time.monotonic() - start
+                if took > SLOW_BATCH:
+                    log.warning("emulator: %.0f ms to handle %d frames (host busy?)",
+                                took * 1e3, handled)  # fmt: skip
+                now = self._clock()
+                if now >= next_tick:
+                    self._tick(now)
+                    next_tick = now + TICK
+
+    def _realtime(self) -> None:
+        """The calling thread under SCHED_FIFO at :attr:`priority` (if set)."""
+        if not self.priority:
+            return
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.priority))
+        except (AttributeError, OSError) as exc:
+            log.warning("emulator: SCHED_FIFO priority %d not in effect: %s", self.priority, exc)
+
+    def _handle(self, ports: list[Port]) -> int:
+        """Every frame waiting on ``ports``, in the order they were sent (their timestamps):
+        a SYNC round is then seen as the master sent it, however the buses were read."""
+        frames: list[tuple[float, int, int, bytes]] = []
+        for k, port in enumerate(ports):
+            try:
+                frames += [(stamp, k, can_id, data) for stamp, can_id, data in port.receive()]
+            except Exception as exc:
+                log.error("bus %s: receive failed: %s", port.name, exc)
+        frames.sort(key=_stamp)
+        for _, k, can_id, data in frames:
+            try:
+                self._frame(ports[k], can_id, data)
+            except Exception:  # one bad frame must not end the bus
+                log.exception("bus %s: frame 0x%03X failed", ports[k].name, can_id)
+        return len(frames)
+
     def _tick_loop(self) -> None:
+        self._realtime()
         while self._running.is_set():
             with self._lock:
                 self._tick(self._clock())
-            time.sleep(0.005)
+            time.sleep(TICK)

@@ -34,14 +34,14 @@ from typing import Any
 
 import can
 
-from hal.emulator.drive import (
+from hal.emulator.codes import (
     EMCY_DEVICE_SPECIFIC,
     EMCY_FOLLOWING_ERROR,
     ERR_GENERIC,
     ERR_MANUFACTURER,
     ERR_PROFILE,
-    EmulatedDrive,
 )
+from hal.emulator.drive import EmulatedDrive
 
 log = logging.getLogger(__name__)
 

@@ -2,6 +2,9 @@
 
 Usage::
 
+    imotion-sim --robot smartpal5 --unix /tmp/sp5
+        # every bus on the ``unix`` transport (hal.can.unix_bus): bus B is the directory
+        # /tmp/sp5/B (a plain name such as ``sp5`` goes under $XDG_RUNTIME_DIR/imotion-can)
     imotion-sim --robot smartpal5 --serve 127.0.0.1:54701
         # no vcan (this machine): host one python-can-remote endpoint per bus on 127.0.0.1,
         # ports 54701, 54702, ... in drives.yaml bus order (port 0: any free ports)
@@ -19,12 +22,14 @@ drives=<n>``, then answers to commands. stdin (optional): one command per line,
 * ``clear [<kind>|-] [<joint>]``, ``status``;
 
 each answered on stdout by one line ``ok ...`` or ``error ...``. stderr: logfmt log lines.
-SIGTERM and SIGINT close the buses and exit 0; a bus that cannot be opened exits 2.
+SIGTERM and SIGINT close the buses and exit 0; a bus that cannot be opened exits 2. SIGUSR1
+writes every thread's stack to stderr (a stalled emulator).
 """
 
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import logging
 import signal
 import sys
@@ -39,6 +44,7 @@ from controller.model.robot import load_robot
 from controller.model.yaml_source import ConfigError
 from controller.version import add_version_argument
 from hal.can.drive_profile import drives_path, load_drive_profile
+from hal.can.unix_bus import INTERFACE, bus_directory
 from hal.emulator.bridge import BusBridge
 from hal.emulator.emulator import DriveEmulator
 
@@ -53,6 +59,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--drives", help="another drive profile (default: the robot's)")
     parser.add_argument("--period", type=float, help="simulated time per SYNC [s]")
     parser.add_argument(
+        "--unix", metavar="DIR", help="every bus on interface 'unix', channel DIR/<bus>"
+    )
+    parser.add_argument(
         "--serve", metavar="HOST:PORT", help="serve every bus with python-can-remote"
     )
     parser.add_argument("--interface", help="python-can interface of the --channel buses")
@@ -61,14 +70,28 @@ def _parser() -> argparse.ArgumentParser:
         help="python-can channel of a bus (repeat per bus)",
     )  # fmt: skip
     parser.add_argument("--log-level", default="info", help="debug, info, warning, error")
+    parser.add_argument(
+        "--realtime", type=int, default=0, metavar="PRIORITY",
+        help="run the emulator thread under SCHED_FIFO at PRIORITY (1..99)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--exit-on-eof", action="store_true",
+        help="stop when stdin closes (a child of --hal hil: its parent died)",
+    )  # fmt: skip
     add_version_argument(parser)
     return parser
 
 
 def _channels(args: argparse.Namespace, buses: Sequence[str]) -> dict[str, tuple[str, str]]:
     """Bus -> (interface, channel) from --interface/--channel; ValueError naming the problem."""
-    if args.serve and (args.channel or args.interface):
-        raise ValueError("--serve hosts its own buses: leave out --interface and --channel")
+    if args.serve and args.unix:
+        raise ValueError("--serve or --unix, not both")
+    if (args.serve or args.unix) and (args.channel or args.interface):
+        option = "--serve" if args.serve else "--unix"
+        raise ValueError(f"{option} hosts its own buses: leave out --interface and --channel")
+    if args.unix:
+        base = bus_directory(args.unix)
+        return {bus: (INTERFACE, str(base / bus)) for bus in buses}
     if args.channel and not args.interface:
         raise ValueError("--channel needs --interface (e.g. socketcan or remote)")
     out: dict[str, tuple[str, str]] = {}
@@ -135,11 +158,16 @@ def handle_command(emulator: DriveEmulator, line: str) -> str:
     return f"error unknown command {line.strip()!r}: inject KIND JOINT [k=v ...] | clear | status"
 
 
-def _read_commands(emulator: DriveEmulator, stdin: TextIO, stdout: TextIO) -> None:
+def _read_commands(
+    emulator: DriveEmulator, stdin: TextIO, stdout: TextIO, eof: threading.Event | None = None
+) -> None:
     for line in stdin:
         answer = handle_command(emulator, line)
         if answer:
             print(answer, file=stdout, flush=True)
+    if eof is not None:
+        log.info("stdin closed: stopping")
+        eof.set()
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -170,7 +198,10 @@ def _run(args: argparse.Namespace) -> int:
         profile = load_drive_profile(path, robot)
         channels = _channels(args, list(profile.buses))
         serve = _serve_address(args.serve) if args.serve else None
+        if not 0 <= args.realtime <= 99:
+            raise ValueError(f"--realtime {args.realtime}: a SCHED_FIFO priority 1..99")
         emulator = DriveEmulator(robot, profile, period=args.period, channels=channels)
+        emulator.priority = args.realtime
     except (ConfigError, ValueError, OSError) as exc:
         print(f"imotion-sim: {exc}", file=sys.stderr)
         return 2
@@ -194,10 +225,13 @@ def _run(args: argparse.Namespace) -> int:
         drives = len(profile.drives_on(bus))
         print(f"bus={bus} interface={shown[0]} channel={shown[1]} drives={drives}", flush=True)
     stop = threading.Event()
+    faulthandler.register(signal.SIGUSR1, all_threads=True)  # stacks to stderr, for a stall
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     reader = threading.Thread(
-        target=_read_commands, args=(emulator, sys.stdin, sys.stdout), daemon=True
+        target=_read_commands,
+        args=(emulator, sys.stdin, sys.stdout, stop if args.exit_on_eof else None),
+        daemon=True,
     )
     reader.start()
     log.info("imotion-sim running: robot %s, %d drives, period %.4f s",

@@ -1,0 +1,103 @@
+"""One emulated bus as the drive emulator sees it: its python-can bus, drives and routing.
+
+Frames in are routed by COB-ID to the drives' handlers (:meth:`Port.rebuild` after a drive's
+routes changed: PDO mapping, SYNC COB-ID, heartbeat consumer). Frames out go through
+:meth:`Port.send`, which counts and logs send errors without raising (a drive keeps running
+while its bus is unwell). ``synced`` says whether this bus had its SYNC since the last
+physics step: the next one starts a new round (:mod:`hal.emulator.emulator`).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+
+import can
+
+from hal.emulator.drive import EmulatedDrive
+
+log = logging.getLogger(__name__)
+
+Handler = Callable[[bytes, float], None]
+
+
+class Port:
+    """Bus ``name`` on python-can ``(interface, channel)`` with ``drives`` on it."""
+
+    def __init__(self, name: str, interface: str, channel: str, drives: list[EmulatedDrive]):
+        self.name = name
+        self.interface = interface
+        self.channel = channel
+        self.drives = drives
+        #: Plant index (profile order) of each drive of this bus.
+        self.indices: list[int] = []
+        self.bus: can.BusABC | None = None
+        self.send_raw: Callable[[int, bytes], None] | None = None
+        self.recv_raw: Callable[[], list[tuple[float, int, bytes]]] | None = None
+        self.bus_off = False
+        self.routes: dict[int, list[Handler]] = {}
+        #: SYNC COB-ID -> positions in :attr:`drives` of the drives it synchronises.
+        self.sync_groups: dict[int, list[int]] = {}
+        self.dirty = True
+        #: This bus had a SYNC since the last physics step.
+        self.synced = False
+        self.send_errors = 0
+        #: SYNC frames handled on this bus (answered, or ignored: bus-off, nobody listens).
+        self.syncs = 0
+
+    def attach(self, bus: can.BusABC | None) -> None:
+        """Use ``bus`` (None: none). A bus with ``send_raw``/``recv_raw`` (the ``unix``
+        interface) is used through those: no :class:`can.Message` per frame."""
+        self.bus = bus
+        self.send_raw = getattr(bus, "send_raw", None)
+        self.recv_raw = getattr(bus, "recv_raw", None)
+
+    def send(self, can_id: int, data: bytes) -> None:
+        bus = self.bus
+        if bus is None or self.bus_off:
+            return
+        try:
+            if self.send_raw is not None:
+                self.send_raw(can_id, data)
+                return
+            bus.send(can.Message(arbitration_id=can_id, data=data, is_extended_id=False))
+        except (can.CanError, OSError) as exc:
+            self.send_errors += 1
+            if self.send_errors in (1, 10, 100) or self.send_errors % 1000 == 0:
+                log.warning("bus %s: send 0x%03X failed (%d so far): %s",
+                            self.name, can_id, self.send_errors, exc)  # fmt: skip
+
+    def rebuild(self) -> None:
+        """Routing table and SYNC groups from the drives' current configuration."""
+        routes: dict[int, list[Handler]] = {}
+        for drive in self.drives:
+            for can_id, handler in drive.routes().items():
+                routes.setdefault(can_id, []).append(handler)
+        self.routes = routes
+        groups: dict[int, list[int]] = {}
+        for k, drive in enumerate(self.drives):
+            groups.setdefault(drive.sync_cob_id, []).append(k)
+        self.sync_groups = groups
+        self.dirty = False
+
+    def receive(self) -> list[tuple[float, int, bytes]]:
+        """Every frame waiting (no wait): ``(timestamp [s], identifier, data)`` of classic
+        11-bit data frames; others are dropped."""
+        if self.bus is None:
+            return []
+        if self.recv_raw is not None:
+            return self.recv_raw()
+        out = []
+        while (msg := self.bus.recv(0.0)) is not None:
+            if not (msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id):
+                out.append((msg.timestamp, msg.arbitration_id, bytes(msg.data)))
+        return out
+
+    def selectable(self) -> bool:
+        """The bus has a file descriptor to wait on (``unix``, ``socketcan``)."""
+        if self.bus is None:
+            return False
+        try:
+            return self.bus.fileno() >= 0
+        except (NotImplementedError, OSError, AttributeError):
+            return False

@@ -1,0 +1,147 @@
+"""hal.can.unix_bus: the python-can ``unix`` interface (a bus = a directory of Unix sockets)."""
+
+from __future__ import annotations
+
+import select
+import socket
+
+import can
+import pytest
+
+import hal.can  # noqa: F401  (registers interface "unix")
+from hal.can.unix_bus import UnixBus, bus_directory, decode, encode
+
+TIMEOUT = 5.0  # [s] bound of every wait (never asserted as a time)
+
+
+def message(can_id: int, data: bytes = b"", **kwargs: object) -> can.Message:
+    return can.Message(arbitration_id=can_id, data=data, is_extended_id=False, **kwargs)
+
+
+@pytest.fixture
+def channel(tmp_path):
+    return str(tmp_path / "bus")
+
+
+def test_two_participants_exchange_frames_in_order(channel):
+    with can.Bus(interface="unix", channel=channel) as a, UnixBus(channel) as b:
+        assert isinstance(a, UnixBus) and a.peers == 0 and b.peers == 1
+        for k in range(50):
+            b.send(message(0x200 + k % 8, bytes([k, 1, 2, 3, 4, 5])))
+        got = [a.recv(TIMEOUT) for _ in range(50)]
+        assert [m.data[0] for m in got] == list(range(50))
+        assert a.peers == 1  # accepted b while receiving
+        a.send(message(0x181, b"\x27\x06\x01\x02\x03\x04"))
+        answer = b.recv(TIMEOUT)
+        assert answer.arbitration_id == 0x181 and bytes(answer.data) == b"\x27\x06\x01\x02\x03\x04"
+        assert a.recv(0.0) is None and b.recv(0.0) is None  # nothing echoed
+
+
+def test_every_other_participant_gets_each_frame(channel):
+    with (
+        UnixBus(channel) as a,
+        UnixBus(channel) as b,
+        UnixBus(channel, receive_own_messages=True) as c,
+    ):
+        for bus in (a, b):
+            assert bus.recv(0.0) is None  # accept the later ones
+        c.send(message(0x080))
+        for bus in (a, b, c):
+            got = bus.recv(TIMEOUT)
+            assert got is not None and got.arbitration_id == 0x080
+        a.send(message(0x77F, b"\x05"))
+        assert b.recv(TIMEOUT).arbitration_id == 0x77F
+        assert c.recv(TIMEOUT).arbitration_id == 0x77F
+        assert a.recv(0.0) is None
+
+
+def test_frame_fields_survive_the_wire():
+    for msg in (
+        can.Message(arbitration_id=0x1ABCDE, is_extended_id=True, data=b"\x01\x02"),
+        can.Message(arbitration_id=0x123, is_extended_id=False, is_remote_frame=True, dlc=4),
+        can.Message(arbitration_id=0x20000080, is_error_frame=True, data=bytes(8)),
+        can.Message(arbitration_id=0x100, is_fd=True, bitrate_switch=True, data=bytes(range(64))),
+    ):
+        back = decode(encode(msg), "x")
+        assert back.equals(msg, timestamp_delta=None, check_channel=False)
+    with pytest.raises(ValueError, match="frame"):
+        decode(b"\x00" * 3, "x")
+    with pytest.raises(ValueError, match="length"):
+        decode(encode(message(0x80, b"\x01")) + b"\x00", "x")
+
+
+def test_fileno_is_selectable(channel):
+    with UnixBus(channel) as a, UnixBus(channel) as b:
+        assert select.select([a], [], [], 0.0)[0] == [a]  # b's connection waits to be accepted
+        assert a.recv(0.0) is None
+        assert select.select([a], [], [], 0.0)[0] == []
+        b.send(message(0x080))
+        assert select.select([a], [], [], TIMEOUT)[0] == [a]
+        assert a.recv(0.0).arbitration_id == 0x080
+
+
+def test_a_peer_that_leaves_or_died_is_forgotten(channel, tmp_path):
+    a = UnixBus(channel)
+    b = UnixBus(channel)
+    assert a.recv(0.0) is None and a.peers == 1
+    b.shutdown()
+    assert a.recv(0.0) is None  # sees the close
+    assert a.peers == 0
+    a.send(message(0x080))  # nobody there: no error
+    # a participant killed without closing leaves its socket file; the next joiner removes it
+    dead = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+    dead_path = bus_directory(channel) / "99999-0"
+    dead.bind(str(dead_path))
+    dead.close()
+    c = UnixBus(channel)
+    assert c.peers == 1 and not dead_path.exists()
+    c.shutdown()
+    a.shutdown()
+    assert list(bus_directory(channel).iterdir()) == []
+
+
+def test_a_peer_that_does_not_read_loses_frames_but_never_blocks_the_sender(channel):
+    with UnixBus(channel) as reader, UnixBus(channel) as writer:
+        sent = 0
+        while writer.dropped == 0 and sent < 1_000_000:
+            writer.send(message(0x181, bytes(8)))
+            sent += 1
+        assert writer.dropped > 0
+        received = 0
+        while reader.recv(0.0) is not None:
+            received += 1
+        assert received == sent - writer.dropped
+
+
+def test_channel_names_and_errors(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    assert bus_directory("body") == tmp_path / "imotion-can" / "body"
+    assert bus_directory(str(tmp_path / "x")) == tmp_path / "x"
+    with pytest.raises(ValueError, match="empty"):
+        bus_directory("")
+    with pytest.raises(can.CanInitializationError, match="too long"):
+        UnixBus(str(tmp_path / ("d" * 120)))
+
+
+def test_raw_frames_match_the_message_api(channel):
+    """send_raw/recv_raw (the emulator's fast path) speak the same wire frame as send/recv."""
+    with UnixBus(channel) as raw, UnixBus(channel) as plain:
+        assert raw.recv_raw() == []  # accepts the later participant
+        raw.send_raw(0x181, b"\x27\x06\x01\x02\x03\x04")
+        got = plain.recv(TIMEOUT)
+        assert got.arbitration_id == 0x181 and bytes(got.data) == b"\x27\x06\x01\x02\x03\x04"
+        assert not got.is_extended_id and got.timestamp > 0
+        plain.send(message(0x201, b"\x0f\x00\x10\x00\x00\x00"))
+        plain.send(can.Message(arbitration_id=0x1ABCDE, data=b"\x01"))  # extended: dropped there
+        plain.send(message(0x080))
+        frames = []
+        for _ in range(100):  # bounded: until both classic frames came
+            frames += raw.recv_raw()
+            if len(frames) >= 2:
+                break
+            select.select([raw], [], [], 0.05)
+        assert [(can_id, data) for _, can_id, data in frames] == [
+            (0x201, b"\x0f\x00\x10\x00\x00\x00"),
+            (0x080, b""),
+        ]
+        assert frames[0][0] <= frames[1][0]  # sender timestamps, in order
