@@ -18,11 +18,16 @@ from tests.support import kinematics
 DT = 0.002
 
 
-def freeze_all_but(ik: WholeBodyIK, kin: Kinematics, units: list[UnitType]) -> None:
-    ik.box.frozen[:] = True
+def all_but(kin: Kinematics, units: list[UnitType]) -> np.ndarray:
+    """Frozen mask: every joint but those of ``units``."""
+    frozen = np.ones(kin.nv, dtype=bool)
     for unit in units:
-        ik.box.frozen[kin.unit_indices(unit)] = False
-    ik.rows.configure(kin, {}, {}, ik.box.frozen)
+        frozen[kin.unit_indices(unit)] = False
+    return frozen
+
+
+def freeze_all_but(ik: WholeBodyIK, kin: Kinematics, units: list[UnitType]) -> None:
+    ik.configure(all_but(kin, units))
 
 
 def run(ik: WholeBodyIK, kin: Kinematics, q: np.ndarray, steps: int, each=None):
@@ -69,9 +74,7 @@ def test_masked_elbow_stays_put_while_the_hand_moves():
     kin.update(q)
     side = RightLeft.RIGHT
     ik = WholeBodyIK(kin, DT)
-    ik.box.frozen[:] = True
-    ik.box.frozen[kin.unit_indices(UnitType.RIGHT_ARM)] = False
-    ik.rows.configure(kin, {RedundantAxis.RIGHT_ELBOW: False}, {}, ik.box.frozen)
+    ik.configure(all_but(kin, [UnitType.RIGHT_ARM]), {RedundantAxis.RIGHT_ELBOW: False})
     start_elbow = kin.elbow_angle(side)
     start = kin.pose(side)
     ik.tasks = [

@@ -11,8 +11,8 @@ import pytest
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
+from controller.qp.constraints import ConstraintSetup, CycleState, JointBox, Level, RowBlock
 from controller.qp.ik import DAMPING, WholeBodyIK
-from controller.qp.limits import JointBox
 from controller.qp.solver import (
     DEFAULT_SOLVER,
     DaqpSolver,
@@ -38,11 +38,33 @@ def _cost(tasks: list[Task], kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
     return H + jtw @ jac, -(jtw @ np.concatenate(rates))
 
 
+def stacked_rows(
+    ik: WholeBodyIK, q: np.ndarray, v_prev: np.ndarray, lb: np.ndarray, ub: np.ndarray
+) -> dict[Level, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Every registered constraint's rows this cycle over every joint, by the level they
+    apply in (computed apart from the IK's buffers)."""
+    kin = ik.kin
+    cycle = CycleState(kin, q, v_prev, lb, ub)
+    out = {}
+    for level in (Level.FIRST, Level.SECOND):
+        parts = [(np.zeros((0, kin.nv)), np.zeros(0), np.zeros(0))]
+        for c in ik.constraints:
+            if level in c.levels:
+                m = c.max_rows
+                rows = RowBlock(np.zeros((m, kin.nv)), np.zeros(m), np.zeros(m))
+                k = c.compute_qp_inequalities(cycle, rows)
+                parts.append((rows.C[:k], rows.lo[:k], rows.hi[:k]))
+        C, lo, hi = (np.concatenate(p) for p in zip(*parts, strict=True))
+        out[level] = (C, lo, hi)
+    return out
+
+
 def reference(ik: WholeBodyIK, q: np.ndarray, v_prev: np.ndarray) -> np.ndarray | None:
     """The documented two-level QP over every joint and every row, solved cold."""
     kin = ik.kin
-    lb, ub = ik.box.bounds(q, v_prev)
-    C, lo, hi = ik.rows.rows(kin, lb, ub)
+    lb, ub = ik.box.compute_qp_bounds(q, v_prev)
+    rows = stacked_rows(ik, q, v_prev, lb, ub)
+    C, lo, hi = rows[Level.FIRST]
     regular = [t for t in ik.tasks if t.level == 0]
     first = [t for t in ik.tasks if t.level == 1]
     second = [t for t in ik.tasks if t.level == 2]
@@ -51,6 +73,7 @@ def reference(ik: WholeBodyIK, q: np.ndarray, v_prev: np.ndarray) -> np.ndarray 
     if v is None:
         return None
     if second:
+        C, lo, hi = rows[Level.SECOND]
         A = np.vstack([t.compute(kin)[0] for t in first])[: ik.n_eq]
         H2, g2 = _cost(second + regular, kin)
         v2 = DaqpSolver(kin.nv, len(lo), len(A)).solve(H2, g2, C, lo, hi, lb, ub, A, A @ v)
@@ -193,36 +216,22 @@ def test_rows_of_frozen_joints_only_are_checked_not_solved():
     assert not result.ok and np.array_equal(result.velocity, np.zeros(kin.nv))
 
 
-def test_configure_and_the_attribute_way_agree():
-    kin_a, kin_b = kinematics("seednoid"), kinematics("seednoid")
-    q = kin_a.home()
-    a, b = WholeBodyIK(kin_a, DT), WholeBodyIK(kin_b, DT)
-    for kin in (kin_a, kin_b):
-        kin.update(q)
-    frozen = frozen_units(kin_a, [UnitType.LEFT_ARM])
-    allowed = {RedundantAxis.LEFT_ELBOW: False}
-    a.configure(frozen, allowed)
-    b.box.frozen = frozen.copy()  # as controller.control.core does
-    b.rows.configure(kin_b, allowed, {}, b.box.frozen)
-    a.tasks, b.tasks = arm_tasks(kin_a), arm_tasks(kin_b)
-    v = np.zeros(kin_a.nv)
-    for _ in range(50):
-        kin_a.update(q)
-        kin_b.update(q)
-        ra, rb = a.solve(q, v), b.solve(q, v)
-        assert ra.ok and rb.ok and np.array_equal(ra.velocity, rb.velocity)
-        v = ra.velocity
-        q = q + v * DT
-
-
-def test_a_changed_frozen_mask_is_noticed_without_configure():
+def test_the_frozen_mask_changes_only_through_configure():
+    """No second way to configure: the box's mask is read-only, ``configure`` sets it."""
     kin = kinematics("pa10")
     q = kin.home()
     kin.update(q)
     ik = WholeBodyIK(kin, DT)
     ik.tasks = arm_tasks(kin)
     assert ik.solve(q, np.zeros(kin.nv)).ok
-    ik.box.frozen[:3] = True  # in place, rows.configure not called
+    with pytest.raises(ValueError, match="read-only"):
+        ik.box.frozen[:3] = True
+    with pytest.raises(AttributeError):
+        ik.box.frozen = np.ones(kin.nv, dtype=bool)  # type: ignore[misc]
+    frozen = np.zeros(kin.nv, dtype=bool)
+    frozen[:3] = True
+    ik.configure(frozen)
+    assert np.array_equal(ik.box.frozen, frozen)
     result = ik.solve(q, np.zeros(kin.nv))
     assert result.ok and np.all(result.velocity[:3] == 0.0) and ik.solver.n == kin.nv - 3
 
@@ -272,18 +281,18 @@ def test_assigning_a_limit_re_prepares_the_box():
     kin = kinematics("pa10")
     box = JointBox(kin, DT)
     q, v = kin.home(), np.zeros(kin.nv)
-    assert np.array_equal(box.bounds(q, v)[1], box.a_max * DT)  # far from the limits
+    assert np.array_equal(box.compute_qp_bounds(q, v)[1], box.a_max * DT)  # far from the limits
     box.a_max = box.a_max * 0.5
-    assert np.array_equal(box.bounds(q, v)[1], box.a_max * DT)
+    assert np.array_equal(box.compute_qp_bounds(q, v)[1], box.a_max * DT)
     box.v_max = 0.25 * box.a_max * DT
-    assert np.array_equal(box.bounds(q, v)[1], box.v_max)
+    assert np.array_equal(box.compute_qp_bounds(q, v)[1], box.v_max)
 
 
 def test_frozen_joints_at_rest_get_exactly_positive_zero():
     kin = kinematics("smartpal5")
     box = JointBox(kin, DT)
-    box.frozen = frozen_units(kin, [UnitType.RIGHT_ARM])
-    lb, ub = box.bounds(kin.home(), np.zeros(kin.nv))
+    box.configure(kin, ConstraintSetup(frozen_units(kin, [UnitType.RIGHT_ARM])))
+    lb, ub = box.compute_qp_bounds(kin.home(), np.zeros(kin.nv))
     for bound in (lb, ub):
         assert np.all(bound[box.frozen] == 0.0) and not np.any(np.signbit(bound[box.frozen]))
 

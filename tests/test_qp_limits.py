@@ -1,4 +1,4 @@
-"""controller.qp.limits: braking-distance box bounds and redundant-axis rows."""
+"""controller.qp.constraints: the braking formula, the joint box, the redundant-axis rows."""
 
 from __future__ import annotations
 
@@ -9,30 +9,45 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.model.redundant_axes import RedundantAxis, available_axes
-from controller.qp.limits import INF, AxisRows, JointBox
+from controller.qp.constraints import INF, AxisRows, ConstraintSetup, JointBox, braking_speed
 from controller.vocabulary import UnitType
 from tests.support import kinematics
 
 
-def one_joint_box(lower: float, upper: float, vmax: float, amax: float, dt: float) -> JointBox:
-    box = JointBox(kinematics("pa10"), dt)
+def one_joint_box(
+    lower: float, upper: float, vmax: float, amax: float, dt: float, frozen: bool = False
+) -> JointBox:
+    kin = kinematics("pa10")
+    box = JointBox(kin, dt)
     box.q_min, box.q_max = np.array([lower]), np.array([upper])
     box.v_max, box.a_max = np.array([vmax]), np.array([amax])
-    box._a_dt = box.a_max * dt
     box.a_brake = 0.5 * box.a_max
-    box._brake_dt = box.a_brake * dt
-    box._two_over_brake = 2.0 / box.a_brake
-    box.frozen = np.zeros(1, dtype=bool)
+    box.configure(kin, ConstraintSetup(np.array([frozen])))
     return box
 
 
-def test_braking_bound_is_zero_at_the_limit_and_grows_like_sqrt():
-    box = one_joint_box(-1, 1, 10, 2.0, 0.001)
-    assert box.braking_bound(np.array([0.0]))[0] == 0.0
-    far = box.braking_bound(np.array([0.5]))[0]
-    a_b = box.a_brake[0]
+def test_braking_speed_is_zero_at_the_limit_and_grows_like_sqrt():
+    a_b, dt = 1.0, 0.001
+    assert braking_speed(0.0, a_b, dt) == 0.0
+    assert braking_speed(-0.1, a_b, dt) == 0.0  # beyond the bound: never further out
+    assert braking_speed(0.5, 0.0, dt) == INF  # no deceleration given: no bound
+    far = braking_speed(0.5, a_b, dt)
     assert far < math.sqrt(2 * a_b * 0.5)
-    assert far > math.sqrt(2 * a_b * 0.5) - a_b * 0.001 - 1e-12
+    assert far > math.sqrt(2 * a_b * 0.5) - a_b * dt - 1e-12
+    # Stopping from it after one cycle at that rate stays within the distance.
+    assert far * dt + far**2 / (2 * a_b) <= 0.5 * (1 + 1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(-0.99, 0.99), st.floats(0.1, 20.0), st.sampled_from([0.001, 0.002, 0.004]))
+def test_the_box_brakes_with_the_one_formula(start, a_brake, dt):
+    """The box's prepared, vectorised braking bound is :func:`braking_speed` at a_brake
+    (velocity and acceleration limits set out of the way)."""
+    box = one_joint_box(-1.0, 1.0, 1e3, 1e7, dt)
+    box.a_brake = np.array([a_brake])
+    lb, ub = box.compute_qp_bounds(np.array([start]), np.zeros(1))
+    assert math.isclose(ub[0], braking_speed(1.0 - start, a_brake, dt), rel_tol=1e-12)
+    assert math.isclose(-lb[0], braking_speed(start + 1.0, a_brake, dt), rel_tol=1e-12)
 
 
 @settings(max_examples=300, deadline=None)
@@ -51,7 +66,7 @@ def test_limits_are_never_crossed_and_accelerations_respected(half, vmax, amax, 
     q = np.array([start * half])
     v = np.zeros(1)
     for w in wish * 8:  # 400 cycles, repeating the wishes
-        lb, ub = box.bounds(q, v)
+        lb, ub = box.compute_qp_bounds(q, v)
         assert lb[0] <= ub[0]
         v_new = np.clip(np.array([w]), lb, ub)
         assert abs(v_new[0]) <= vmax + 1e-12
@@ -62,17 +77,16 @@ def test_limits_are_never_crossed_and_accelerations_respected(half, vmax, amax, 
 
 
 def test_frozen_joint_stays_still_at_rest_and_brakes_when_moving():
-    box = one_joint_box(-1, 1, 2, 4.0, 0.002)
-    box.frozen[:] = True
-    lb, ub = box.bounds(np.array([0.0]), np.array([0.0]))
+    box = one_joint_box(-1, 1, 2, 4.0, 0.002, frozen=True)
+    lb, ub = box.compute_qp_bounds(np.array([0.0]), np.array([0.0]))
     assert lb[0] == ub[0] == 0.0
-    lb, ub = box.bounds(np.array([0.0]), np.array([1.0]))
+    lb, ub = box.compute_qp_bounds(np.array([0.0]), np.array([1.0]))
     assert lb[0] == ub[0] == 1.0 - 4.0 * 0.002  # decelerating as hard as allowed
 
 
 def test_beyond_a_limit_the_bound_points_back_inside():
     box = one_joint_box(-1, 1, 2, 4.0, 0.002)
-    lb, ub = box.bounds(np.array([1.001]), np.array([0.0]))
+    lb, ub = box.compute_qp_bounds(np.array([1.001]), np.array([0.0]))
     assert ub[0] <= 0.0  # may not move further out
     assert lb[0] < 0.0  # and may move back
 
@@ -82,7 +96,7 @@ def test_unbounded_vehicle_joints_get_only_velocity_and_acceleration_bounds():
     box = JointBox(kin, 0.002)
     q = np.zeros(kin.nv)
     q[kin.unit_indices(UnitType.VEHICLE)] = [1e6, -1e6, 1e3]
-    lb, ub = box.bounds(q, np.zeros(kin.nv))
+    lb, ub = box.compute_qp_bounds(q, np.zeros(kin.nv))
     vx = kin.unit_indices(UnitType.VEHICLE)[0]
     assert np.isfinite(lb).all() and np.isfinite(ub).all()
     assert ub[vx] == box.a_max[vx] * 0.002
@@ -127,7 +141,7 @@ def test_range_row_brakes_before_its_bounds_and_pulls_back_from_outside():
     # Braking distance toward each bound: well below the one-cycle jump (bound − x)/dt.
     assert -0.1 / 0.002 < lo[i] < 0.0 < hi[i] < 0.2 / 0.002
     # Half the deceleration of the best joint on the row (both weights are 1).
-    brake = 0.5 * max(rows._a_max[kin.index(n)] for n in ("lumbar_lower", "lumbar_upper"))
+    brake = 0.5 * max(kin.robot.joints[n].acceleration for n in ("lumbar_lower", "lumbar_upper"))
     assert math.isclose(hi[i], brake * (math.sqrt(0.002**2 + 2 * 0.2 / brake) - 0.002))
     rows.configure(kin, {}, {RedundantAxis.LUMBAR_RY: (0.3, 0.5)}, frozen)  # now outside
     _, lo, hi = rows.rows(kin)

@@ -43,7 +43,7 @@ The problem, identical for every library as far as their APIs allow:
   acceleration limit and the braking distance to the position limits (stricter than the
   peers'). Pink's ``AccelerationLimit`` is left out to keep Pink and mink alike.
 * Frozen joints: the vehicle and waist joints are frozen for all three (only the arms move):
-  imotion through ``ik.box.frozen``; Pink through a ``v = 0`` limit on them
+  imotion through ``ik.configure``; Pink through a ``v = 0`` limit on them
   (:class:`FrozenJoints`: Pink's ``VelocityLimit`` ignores limits below 1e-10, so zero
   limits would free them instead); mink through zero ``VelocityLimit`` entries. mink's
   gripper joints (absent from the Pinocchio model) are held still the same way and by its
@@ -262,8 +262,7 @@ class ImotionRunner(Runner):
         self.targets = targets
         self.kin = kin = Kinematics(robot)
         self.ik = ik = WholeBodyIK(kin, dt, solver)
-        ik.box.frozen[:] = frozen_mask(kin)
-        ik.rows.configure(kin, {}, {}, ik.box.frozen)
+        ik.configure(frozen_mask(kin))
         home = kin.home()
         self.cp_tasks = [
             ControlPointTask(s, targets.original[0][s], gain=gain) for s in targets.sides

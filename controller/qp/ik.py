@@ -8,9 +8,11 @@ Level 2 (redundant axes: elbow, waist, vehicle targets), only when such tasks ar
 
     v₂ = argmin Σ_level2 ‖J v − e‖²_W + ε‖v − v_post‖² + λ‖v‖²   s.t. limits, J₁ v = J₁ v₁
 
-Limits (both levels): joint box (velocity, acceleration, position with braking distance,
-frozen joints) and redundant-axis rows (masks, RedundantLimit ranges, no sideways motion of a
-differential base); see :mod:`controller.qp.limits`. ε is the posture weight (1e-7), λ = 1e-9.
+Limits: the constraints of :mod:`controller.qp.constraints`, each in the levels it names: the
+joint box (velocity, acceleration, position with braking distance, frozen joints), the
+redundant-axis rows (masks, RedundantLimit ranges) and the differential drive's row (no
+sideways motion), plus any constraint registered with :meth:`WholeBodyIK.add`.
+ε is the posture weight (1e-7), λ = 1e-9.
 
 Why a strict hierarchy and not weights: with weights, a redundant goal that the limits make
 unreachable (SEED-Noid's ±5° wrist pitch boxes its null space in) pulls the control point
@@ -20,19 +22,16 @@ The second solve runs only while redundant-axis tasks are active. Level 1 never 
 lack of redundancy (it has no equality), so the hierarchy keeps the robustness of a single
 damped QP: at singularities λ and ε damp, the box bounds.
 
-Problem size: a frozen joint's velocity is fixed by the box (lb = ub: zero at rest, braking
-while it still moves), so it is no variable. The QPs run over the free joints only, with the
-frozen joints' share moved to the right-hand sides (``J v = J_f v_f + J_z v_z``); axis rows
-that constrain nothing are left out, and a row whose coefficients all belong to frozen joints
-(the differential drive's, with the base frozen) is checked instead of solved: it holds, or
-the step fails as the infeasible QP would. Free set and rows
-change only with the configuration — :meth:`WholeBodyIK.configure`, or assigning ``box.frozen``
-and calling ``rows.configure`` (noticed at the next :meth:`~WholeBodyIK.solve`) — and every
-problem shape keeps its own persistent, warm-started solver.
+Problem size: the QPs run over the free joints only, and constraints whose rows involve
+frozen joints only are checked instead of solved (:mod:`controller.qp.layout`). Free set and
+rows change only with the configuration, :meth:`WholeBodyIK.configure` (the one way to set
+it), and every problem shape keeps its own persistent, warm-started solver.
 
-A failed or infeasible level-1 solve returns ``ok=False`` with zero velocity: the loop holds
-position and raises a fault. A failed level 2 falls back to v₁ (safe: it satisfies every
-limit) and says so in ``message``.
+A level-1 QP without solution is retried with the constraints' relaxations
+(:class:`~controller.qp.constraints.Relaxation`: first "no further", then without the
+droppable rows); the step's ``message`` says what gave. A failed or infeasible level-1 solve
+returns ``ok=False`` with zero velocity: the loop holds position and raises a fault. A failed
+level 2 falls back to v₁ (safe: it satisfies every limit) and says so in ``message``.
 """
 
 from __future__ import annotations
@@ -44,8 +43,15 @@ import numpy as np
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, available_axes
-from controller.qp.limits import INF, AxisRows, JointBox
-from controller.qp.solver import DEFAULT_SOLVER, FEASIBILITY_TOL, QPSolver, make_solver
+from controller.qp.constraints import (
+    AxisRows,
+    Constraint,
+    ConstraintSetup,
+    CycleState,
+    JointBox,
+)
+from controller.qp.layout import Layout
+from controller.qp.solver import DEFAULT_SOLVER, QPSolver, make_solver
 from controller.qp.tasks import Task
 
 #: Tikhonov damping λ on the joint velocities.
@@ -60,36 +66,6 @@ class IKResult:
     ok: bool
     message: str = ""
     iterations: int = 0
-
-
-class _Layout:
-    """The QPs' structure for one configuration: the variables (free joints) and the rows."""
-
-    def __init__(self, box: JointBox, rows: AxisRows):
-        #: What the layout was made for: the frozen mask and the rows' configuration.
-        self.frozen_key = box.frozen.tobytes()
-        self.rows_version = rows.version
-        frozen = np.asarray(box.frozen, dtype=bool)
-        free = np.flatnonzero(~frozen)
-        self.n = len(free)
-        #: Frozen joints, and the free ones: a slice when contiguous (views, not copies).
-        self.fixed = np.flatnonzero(frozen)
-        self.has_fixed = len(self.fixed) > 0
-        contiguous = self.n > 0 and free[-1] - free[0] + 1 == self.n
-        self.free: slice | np.ndarray = slice(free[0], free[-1] + 1) if contiguous else free
-        confined = rows.confined
-        idle = [i for i in rows.active if i in confined and frozen[confined[i]].all()]
-        #: Active rows: solved, or checked when only frozen joints have coefficients in them.
-        self.checked = np.array(idle, dtype=int)
-        self.rows = np.setdiff1d(rows.active, self.checked)
-        #: No row to solve, and none to check while the frozen joints are at rest (C_z v_z = 0:
-        #: a constant l ≤ 0 ≤ u holds for good).
-        bounds = rows.constant_bounds
-        self.no_rows_at_rest = not len(self.rows) and all(
-            i in bounds and bounds[i][0] <= 0.0 <= bounds[i][1] for i in self.checked
-        )
-        self.damping = DAMPING * np.eye(self.n)
-        self.no_rows = (np.zeros((0, self.n)), np.zeros(0), np.zeros(0))
 
 
 class _Stack:
@@ -125,7 +101,7 @@ class _Stack:
             task.compute_into(kin, jac, rate)
             weight[...] = task.weight
 
-    def cost(self, layout: _Layout, v_fixed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    def cost(self, layout: Layout, v_fixed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Hessian and gradient of Σ ‖J v − e‖²_W + λ‖v‖² over the free joints; ``v_fixed``:
         the frozen joints' velocities (None when all zero)."""
         key = self.weight.tobytes()
@@ -172,8 +148,9 @@ class _Plan:
 class WholeBodyIK:
     """Builds and solves the cycle's QPs. Call ``kin.update(q_measured)`` before :meth:`solve`.
 
-    Configure with :meth:`configure` (or set ``box.frozen`` and call ``rows.configure``), set
-    ``tasks``; a task's number of rows must not change while it is in ``tasks``.
+    Configure with :meth:`configure`, set ``tasks``; a task's number of rows must not change
+    while it is in ``tasks``. Constraints: :attr:`box` (the joint box), the redundant-axis
+    rows of :attr:`rows`, and any :meth:`add` registers.
     """
 
     def __init__(self, kin: Kinematics, dt: float, solver: str = DEFAULT_SOLVER):
@@ -181,7 +158,9 @@ class WholeBodyIK:
         self.dt = dt
         self.axes = available_axes(kin)
         self.box = JointBox(kin, dt)
+        #: The robot's redundant-axis constraints (configured by :meth:`configure` only).
         self.rows = AxisRows(kin, self.axes, dt)
+        self._constraints: list[Constraint] = list(self.rows.constraints)
         #: Equality rows of level 2: at most 6 per control point.
         self.n_eq = 6 * len(kin.arms)
         self.solver_name = solver
@@ -190,6 +169,20 @@ class WholeBodyIK:
         self.solver2: QPSolver | None = None
         self.tasks: list[Task] = []
         self._plan = _Plan([], kin)
+        self._cycle = CycleState(kin, np.zeros(kin.nv), np.zeros(kin.nv))
+        self._setup = ConstraintSetup(np.zeros(kin.nv, dtype=bool))
+        self.configure(self._setup.frozen)
+
+    @property
+    def constraints(self) -> tuple[Constraint, ...]:
+        """The row constraints, in registration order."""
+        return tuple(self._constraints)
+
+    def add(self, constraint: Constraint) -> None:
+        """Register a row constraint (see :mod:`controller.qp.constraints.protocol`); it is
+        configured at once with the current configuration, and at every :meth:`configure`."""
+        self._constraints.append(constraint)
+        constraint.configure(self.kin, self._setup)
         self._layout = self._new_layout()
 
     def configure(
@@ -200,56 +193,41 @@ class WholeBodyIK:
     ) -> None:
         """Joints held still (``frozen``, a mask over ``kin.joint_names``), masked axes
         (``allowed`` False: held at their values in ``kin``'s last update) and axis ranges."""
-        self.box.frozen = np.array(frozen, dtype=bool)
-        self.rows.configure(self.kin, allowed or {}, ranges or {}, self.box.frozen)
+        self._setup = setup = ConstraintSetup(
+            np.array(frozen, dtype=bool), allowed or {}, ranges or {}
+        )
+        self.box.configure(self.kin, setup)
+        for constraint in self._constraints:
+            constraint.configure(self.kin, setup)
         self._layout = self._new_layout()
 
     def solver_for(self, level: int = 1, p: int = 0) -> QPSolver:
         """The persistent solver of ``level`` for the current layout's shape (``p``
         equalities): one per shape, kept across configurations."""
         layout = self._layout
-        key = (layout.n, len(layout.rows), p, level)
+        key = (layout.n, layout.m1 if level == 1 else layout.m2, p, level)
         solver = self._solvers.get(key)
         if solver is None:
             # No guard: the box never crosses (JointBox) and solve() checks its result.
             solver = self._solvers[key] = make_solver(self.solver_name, *key[:3], guard=False)
         return solver
 
-    def _new_layout(self) -> _Layout:
-        self._layout = layout = _Layout(self.box, self.rows)
+    def _new_layout(self) -> Layout:
+        self._layout = layout = Layout(self._setup.frozen, self._constraints, DAMPING)
         if layout.n:  # with every joint frozen there is nothing to solve (nor a QP to make)
             self.solver = self.solver_for()
-        for (n, m, _, _), solver in self._solvers.items():
-            if (n, m) == (layout.n, len(layout.rows)):
+        shapes = {(layout.n, layout.m1, 1), (layout.n, layout.m2, 2)}
+        for (n, m, _, level), solver in self._solvers.items():
+            if (n, m, level) in shapes:
                 solver.reset()  # a new problem: no warm start from another one
         return layout
 
-    def _rows(
-        self, layout: _Layout, v_fixed: np.ndarray | None, lb: np.ndarray, ub: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """The solved rows over the free joints (frozen joints' share moved to the bounds),
-        or None when a checked row does not hold."""
-        C, lo, hi = self.rows.rows(self.kin, lb, ub)
-        c = layout.checked
-        if len(c):  # l ≤ C_z v_z ≤ u must hold as it is
-            lo_c, hi_c = lo[c], hi[c]
-            if v_fixed is not None:
-                share = C[c][:, layout.fixed].dot(v_fixed)
-                lo_c -= share
-                hi_c -= share
-            tol = FEASIBILITY_TOL
-            if np.count_nonzero(lo_c > tol) or np.count_nonzero(hi_c < -tol):
-                return None
-        r = layout.rows
-        if not len(r):
-            return layout.no_rows
-        Cr = C[r]
-        lo_r, hi_r = lo[r], hi[r]
-        if v_fixed is not None:
-            share = Cr[:, layout.fixed].dot(v_fixed)
-            lo_r -= share
-            hi_r -= share
-        return np.ascontiguousarray(Cr[:, layout.free]), lo_r, hi_r
+    def _cycle_at(
+        self, q: np.ndarray, v_prev: np.ndarray, lb: np.ndarray, ub: np.ndarray
+    ) -> CycleState:
+        cycle = self._cycle
+        cycle.q, cycle.v_prev, cycle.lb, cycle.ub = q, v_prev, lb, ub
+        return cycle
 
     def solve(self, q_cmd: np.ndarray, v_prev: np.ndarray) -> IKResult:
         """Velocities for the next cycle.
@@ -259,28 +237,23 @@ class WholeBodyIK:
         """
         kin = self.kin
         layout = self._layout
-        if self.rows.version != layout.rows_version or (
-            self.box.frozen.tobytes() != layout.frozen_key
-        ):
-            layout = self._new_layout()
         plan = self._plan
         if tuple(self.tasks) != plan.key:
             plan = self._plan = _Plan(self.tasks, kin)
-        lb, ub = self.box.bounds(q_cmd, v_prev)
+        lb, ub = self.box.compute_qp_bounds(q_cmd, v_prev)
         v = lb.copy()  # frozen joints: lb = ub is their velocity; free ones are set below
         moving = None
         if layout.has_fixed:
             v_fixed = lb[layout.fixed]
             moving = v_fixed if np.count_nonzero(v_fixed) else None
-        if moving is None and layout.no_rows_at_rest:
-            rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = layout.no_rows
-        else:
-            rows = self._rows(layout, moving, lb, ub)
-        if rows is None:
-            return IKResult(np.zeros(kin.nv), False, "QP infeasible: rows of frozen joints")
+        if layout.checked is not None and (moving is not None or not layout.checked_hold_at_rest):
+            if not layout.check(self._cycle_at(q_cmd, v_prev, lb, ub), moving):
+                return IKResult(np.zeros(kin.nv), False, "QP infeasible: rows of frozen joints")
         if not layout.n:
             return IKResult(v, True)
-        C, lo, hi = rows
+        if layout.m:
+            layout.fill(self._cycle_at(q_cmd, v_prev, lb, ub), moving)
+        C, lo, hi = layout.level1
         lb, ub = lb[layout.free], ub[layout.free]
         try:
             plan.fill(kin)
@@ -291,22 +264,16 @@ class WholeBodyIK:
         x = self.solver.solve(H, g, C, lo, hi, lb, ub)
         message = ""
         if x is None and len(lo):
-            # Held axes and ranges against the box or each other (a held vehicle y against a
-            # differential base's no-sideways row): relax them to "no further drift / no
-            # further out" (bands that include 0) and try once more.
-            lo, hi = np.minimum(lo, 0.0), np.maximum(hi, 0.0)
+            # Rows against the box or each other (a held vehicle y against a differential
+            # base's no-sideways row): relax what may give to "no further" and try once more;
+            # nearly parallel equalities (held vehicle y and the no-sideways row at heading
+            # ~0) can still defeat the solver although v = 0 is feasible: then drop what may
+            # be dropped for this cycle.
+            message = layout.relax()
             x = self.solver.solve(H, g, C, lo, hi, lb, ub)
-            message = "held axes and ranges relaxed to 'no further' this cycle"
             if x is None:
-                # Nearly parallel equalities (held vehicle y and the no-sideways row at
-                # heading ~0) can defeat the solver although v = 0 is feasible: keep only
-                # the differential drive's row, which is physics, for this cycle.
-                drive = layout.rows == self.rows.m - 1 if self.rows.differential else None
-                keep = np.zeros(len(lo), dtype=bool) if drive is None else drive
-                lo = np.where(keep, lo, -INF)
-                hi = np.where(keep, hi, INF)
+                message = layout.drop()
                 x = self.solver.solve(H, g, C, lo, hi, lb, ub)
-                message = "held axes and ranges not enforced this cycle (conflicting rows)"
         if x is None:
             return IKResult(np.zeros(kin.nv), False, "QP infeasible or not solved")
         iterations = self.solver.iterations
@@ -315,7 +282,8 @@ class WholeBodyIK:
             A = np.ascontiguousarray(plan.level1.jac[:p, layout.free])
             H2, g2 = plan.level2.cost(layout, moving)
             self.solver2 = solver2 = self.solver_for(2, p)
-            x2 = solver2.solve(H2, g2, C, lo, hi, lb, ub, A, A.dot(x))
+            C2, lo2, hi2 = layout.level2
+            x2 = solver2.solve(H2, g2, C2, lo2, hi2, lb, ub, A, A.dot(x))
             if x2 is None:
                 message = "level 2 not solved: redundant axes held"
             else:

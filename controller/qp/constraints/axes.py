@@ -1,0 +1,207 @@
+"""Redundant-axis rows: masked axes held where they were, axis ranges kept.
+
+One row per redundant axis a motion masks or limits (axes are listed in
+:mod:`controller.model.redundant_axes`), ``lo ≤ J_axis v ≤ hi``:
+  * masked axis (not selected for Cartesian moves): held at its value when the motion was
+    configured, ``J_axis v = 0.5·(x_hold − x)/dt`` exactly (the feedback removes the
+    second-order drift a bare ``J_axis v = 0`` would accumulate); a held elbow rests while
+    the arm is within 1 cm of full stretch, where the angle is undefined;
+  * RedundantLimit range [lo, hi]: the axis rate toward a bound is limited by a braking
+    distance, as for joints, at half the deceleration its best joint can give it
+    (``a_axis = ½·max_j |J_axis,j|·a_max,j``); linearised at the measured value ``x``;
+    outside (drift of the linearisation) it is pulled back in like a held axis.
+With the cycle's joint box, a row never asks for an axis rate the box cannot produce
+(interval arithmetic over the box): a hold wants the rate nearest its feedback, a range the
+strongest braking there is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from controller.model.kinematics import Kinematics
+from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_joints, axis_value
+from controller.qp.constraints.braking import BRAKING_SHARE, braking_speed
+from controller.qp.constraints.drive import DifferentialDrive
+from controller.qp.constraints.protocol import (
+    INF,
+    ConstraintSetup,
+    CycleState,
+    Level,
+    Relaxation,
+    RowBlock,
+)
+
+#: A held elbow angle is not enforced while the elbow is closer than this [m] to the
+#: shoulder-wrist line: the angle is (nearly) undefined there and its Jacobian explodes.
+HOLD_MIN_ELBOW_OFFSET = 0.01
+#: Fraction of a masked axis's drift from its held value removed per cycle.
+HOLD_FRACTION = 0.5
+#: Share of the reachable interval kept free at each end: a row asking for exactly the box's
+#: extreme leaves only a corner of the box feasible, which solvers miss numerically.
+REACH_MARGIN = 0.01
+
+
+class AxisLimit:
+    """Rows of the held and the ranged redundant axes, in axis order.
+
+    An axis whose joints are all frozen gets no row (it cannot move anyway); free axes
+    without a range get none either. Held axes and ranges are preferences of the motion:
+    relaxed to "no further" when the QP has no solution, then dropped for the cycle.
+    """
+
+    name = "held axes and ranges"
+    levels = Level.BOTH
+    relaxation = Relaxation.NO_FURTHER_THEN_DROP
+    joints = None
+    holds_at_rest = False
+
+    def __init__(self, kin: Kinematics, axes: list[RedundantAxis], dt: float):
+        self.axes = axes
+        self.dt = dt
+        self._joints = [axis_joints(kin, a) for a in axes]
+        self._a_max = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
+        #: (row, axis, held value [rad, m]) and (row, axis, lower, upper [rad, m]).
+        self._held: list[tuple[int, RedundantAxis, float]] = []
+        self._ranged: list[tuple[int, RedundantAxis, float, float]] = []
+        #: Index in ``axes`` of the axis of each row.
+        self.active = np.zeros(0, dtype=int)
+        self.max_rows = 0
+
+    def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
+        """Masked axes are held at their values in ``kin``'s last update."""
+        held: list[tuple[int, RedundantAxis, float]] = []
+        ranged: list[tuple[int, RedundantAxis, float, float]] = []
+        active: list[int] = []
+        for i, axis in enumerate(self.axes):
+            if setup.frozen[self._joints[i]].all():
+                continue  # cannot move anyway
+            limits = setup.ranges.get(axis)
+            if not setup.allowed.get(axis, True):
+                held.append((len(active), axis, axis_value(kin, axis)))
+            elif limits is not None:
+                ranged.append((len(active), axis, limits[0], limits[1]))
+            else:
+                continue
+            active.append(i)
+        self._held, self._ranged = held, ranged
+        self.active = np.array(active, dtype=int)
+        self.max_rows = len(active)
+
+    def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
+        kin, lb, ub, dt = cycle.kin, cycle.lb, cycle.ub, self.dt
+        C, lo, hi = rows
+        for k, axis, hold in self._held:
+            row = C[k]
+            row[...] = axis_jacobian(kin, axis)
+            if axis.is_elbow and kin.elbow_offset(axis.side) < HOLD_MIN_ELBOW_OFFSET:
+                lo[k], hi[k] = -INF, INF  # nearly stretched: no elbow angle to hold
+                continue
+            err = hold - axis_value(kin, axis)
+            if axis.is_elbow:
+                err = math.remainder(err, math.tau)
+            rate = HOLD_FRACTION * err / dt
+            if lb is not None and ub is not None:
+                r_lo, r_hi = _reachable(row, lb, ub)
+                rate = min(max(rate, r_lo), r_hi)
+            lo[k] = hi[k] = rate
+        for k, axis, rmin, rmax in self._ranged:
+            row = C[k]
+            row[...] = axis_jacobian(kin, axis)
+            x = axis_value(kin, axis)
+            brake = BRAKING_SHARE * float(np.max(np.abs(row) * self._a_max))
+            # Inside: brake before the bound. Outside (linearisation drift): pull back in.
+            low = -braking_speed(x - rmin, brake, dt)
+            high = braking_speed(rmax - x, brake, dt)
+            if x < rmin:
+                low = HOLD_FRACTION * (rmin - x) / dt
+                high = max(high, low)
+            elif x > rmax:
+                high = HOLD_FRACTION * (rmax - x) / dt
+                low = min(low, high)
+            if lb is not None and ub is not None:
+                low, high = _fit(low, high, *_reachable(row, lb, ub))
+            lo[k], hi[k] = low, high
+        return self.max_rows
+
+
+def _fit(low: float, high: float, r_lo: float, r_hi: float) -> tuple[float, float]:
+    """[low, high] cut to the reachable [r_lo, r_hi]; the nearest reachable value when they
+    do not overlap (the row then asks for the strongest correction the box allows)."""
+    if high < r_lo:
+        return r_lo, r_lo
+    if low > r_hi:
+        return r_hi, r_hi
+    return max(low, r_lo), min(high, r_hi)
+
+
+def _reachable(row: np.ndarray, lb: np.ndarray, ub: np.ndarray) -> tuple[float, float]:
+    """``row · v`` over the box ``lb ≤ v ≤ ub``: its range shrunk by REACH_MARGIN each end."""
+    pos = np.maximum(row, 0.0)
+    neg = np.minimum(row, 0.0)
+    low, high = float(pos @ lb + neg @ ub), float(pos @ ub + neg @ lb)
+    margin = REACH_MARGIN * (high - low)
+    return low + margin, high - margin
+
+
+class AxisRows:
+    """Every redundant-axis row of a robot at a fixed place, for callers that want the set
+    at once (the reachability check): row i for ``axes[i]``, the differential drive's row
+    last; rows that constrain nothing are zero with infinite bounds.
+
+    The two constraints it holds, :attr:`limit` and :attr:`drive`, are what
+    :class:`~controller.qp.ik.WholeBodyIK` registers (it configures them itself).
+    """
+
+    def __init__(self, kin: Kinematics, axes: list[RedundantAxis], dt: float):
+        self.axes = axes
+        self.limit = AxisLimit(kin, axes, dt)
+        self.drive = DifferentialDrive(kin) if DifferentialDrive.applies(kin) else None
+        self.differential = self.drive is not None
+        self.m = len(axes) + (1 if self.differential else 0)
+        self._C = np.zeros((self.m, kin.nv))
+        self._l = np.full(self.m, -INF)
+        self._u = np.full(self.m, INF)
+        n = len(axes)
+        self._scratch = RowBlock(np.zeros((n, kin.nv)), np.zeros(n), np.zeros(n))
+        self._drive_rows = RowBlock(self._C[n:], self._l[n:], self._u[n:])
+        self.configure(kin, {}, {}, np.zeros(kin.nv, dtype=bool))
+
+    @property
+    def constraints(self) -> list[AxisLimit | DifferentialDrive]:
+        return [self.limit] if self.drive is None else [self.limit, self.drive]
+
+    def configure(
+        self,
+        kin: Kinematics,
+        allowed: dict[RedundantAxis, bool],
+        ranges: dict[RedundantAxis, tuple[float, float] | None],
+        frozen_joints: np.ndarray,
+    ) -> None:
+        """Set which axes are held (``allowed`` False: at their values in ``kin``'s last
+        update) and their ranges [rad, m]; ``frozen_joints``: the frozen joints' mask."""
+        setup = ConstraintSetup(frozen_joints, allowed, ranges)
+        for constraint in self.constraints:
+            constraint.configure(kin, setup)
+        n = len(self.axes)
+        self._C[:n] = 0.0
+        self._l[:n] = -INF
+        self._u[:n] = INF
+
+    def rows(
+        self, kin: Kinematics, lb: np.ndarray | None = None, ub: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(C, l, u)`` at the measured state of the last ``kin.update``; with the cycle's
+        joint box ``lb``/``ub`` [rad/s, m/s] the rows fit in it (see the module), without it
+        the bounds are the plain ones."""
+        cycle = CycleState(kin, kin.q, np.zeros(kin.nv), lb, ub)
+        k = self.limit.compute_qp_inequalities(cycle, self._scratch)
+        rows = self.limit.active[:k]
+        self._C[rows] = self._scratch.C[:k]
+        self._l[rows] = self._scratch.lo[:k]
+        self._u[rows] = self._scratch.hi[:k]
+        if self.drive is not None:
+            self.drive.compute_qp_inequalities(cycle, self._drive_rows)
+        return self._C, self._l, self._u
