@@ -309,9 +309,7 @@ class MotionCore:
             step = min(elapsed, MAX_STEP_PERIODS * self.dt)
         if step != self.step:
             self.step = step
-            self.ik.dt = step
-            self.ik.box.dt = step
-            self.ik.rows.dt = step
+            self.ik.set_period(step)
         return step
 
     def cycle(self, elapsed: float | None = None) -> None:

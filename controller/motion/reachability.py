@@ -33,7 +33,8 @@ from controller.model.redundant_axes import (
 )
 from controller.motion.motions import IKSetup
 from controller.motion.paths import ArcPath, LinePath, VectorPath
-from controller.qp.limits import BRAKING_SHARE, HOLD_MIN_ELBOW_OFFSET, AxisRows
+from controller.qp.constraints import BRAKING_SHARE, AxisRows
+from controller.qp.constraints.axes import HOLD_MIN_ELBOW_OFFSET
 from controller.qp.solver import ProxQPSolver
 from controller.qp.tasks import pose_error
 from controller.vocabulary import RightLeft, UnitType

@@ -178,6 +178,15 @@ class WholeBodyIK:
         """The row constraints, in registration order."""
         return tuple(self._constraints)
 
+    def set_period(self, dt: float) -> None:
+        """This cycle's length [s] (the measured period when the loop runs late): the joint
+        box and every constraint that has a period use it."""
+        self.dt = dt
+        self.box.dt = dt
+        for constraint in self._constraints:
+            if hasattr(constraint, "dt"):
+                constraint.dt = dt
+
     def add(self, constraint: Constraint) -> None:
         """Register a row constraint (see :mod:`controller.qp.constraints.protocol`); it is
         configured at once with the current configuration, and at every :meth:`configure`."""
