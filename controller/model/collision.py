@@ -92,11 +92,11 @@ class CollisionDistances:
         for req in self.geometry_data.distanceRequests:
             req.enable_signed_distance = True
         self._own_data = model.createData()
-        n = len(self.pair_links)
-        self.distances = np.zeros(n)
-        self.points1 = np.zeros((n, 3))
-        self.points2 = np.zeros((n, 3))
-        self.normals = np.zeros((n, 3))
+        #: Results of coal, one per pair (references into the geometry data: reading them
+        #: through this list is several times faster than through ``distanceResults``).
+        self._results = list(self.geometry_data.distanceResults)
+        #: Signed distance of each pair [m] at the last update (negative: overlap).
+        self.distances = np.zeros(len(self.pair_links))
         self._data: pin.Data = self._own_data
 
     def __len__(self) -> int:
@@ -109,24 +109,26 @@ class CollisionDistances:
         self.update(self._own_data)
 
     def update(self, data: pin.Data) -> None:
-        """Distances and witness points at the configuration ``data`` holds.
+        """Distances of every pair at the configuration ``data`` holds.
 
         ``data`` must be this model's data after ``pin.computeJointJacobians(model, data, q)``
         (which :meth:`controller.model.kinematics.Kinematics.update` does); it is kept for
-        :meth:`jacobian`.
+        :meth:`witness` and :meth:`jacobian`.
         """
         self._data = data
         pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
         pin.computeDistances(self.geometry, self.geometry_data)
-        for k, res in enumerate(self.geometry_data.distanceResults):
-            p1 = res.getNearestPoint1()
-            p2 = res.getNearestPoint2()
-            self.distances[k] = res.min_distance
-            self.points1[k] = p1
-            self.points2[k] = p2
-            self.normals[k] = -np.asarray(res.normal)
+        self.distances[:] = [r.min_distance for r in self._results]
 
     # -------------------------------------------------------------------------- queries
+    def witness(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pair ``k``'s witness points ``p1``, ``p2`` [m] (world) and unit normal ``n`` from
+        shape 2 to shape 1, at the last :meth:`update`."""
+        res = self._results[k]
+        p1 = np.array(res.getNearestPoint1())
+        p2 = np.array(res.getNearestPoint2())
+        return p1, p2, -np.asarray(res.normal)
+
     def jacobian(self, rows: Sequence[int] | np.ndarray | None = None) -> np.ndarray:
         """Distance Jacobian rows ``n^T (J_p1 - J_p2)`` [m/rad or m/m], ``len(rows) x nv``.
 
@@ -135,11 +137,9 @@ class CollisionDistances:
         index = range(len(self)) if rows is None else [int(r) for r in rows]
         out = np.zeros((len(index), self.model.nv))
         for row, k in enumerate(index):
-            n = self.normals[k]
+            p1, p2, n = self.witness(k)
             j1, j2 = self._joints[k]
-            out[row] = self._point_row(j1, self.points1[k], n) - self._point_row(
-                j2, self.points2[k], n
-            )
+            out[row] = self._point_row(j1, p1, n) - self._point_row(j2, p2, n)
         return out
 
     def _point_row(self, joint: int, point: np.ndarray, n: np.ndarray) -> np.ndarray:
