@@ -69,8 +69,15 @@ class CollisionDistances:
     """
 
     def __init__(
-        self, model: pin.Model, source: ModelSource, link_pairs: Iterable[tuple[str, str]]
+        self,
+        model: pin.Model,
+        source: ModelSource,
+        link_pairs: Iterable[tuple[str, str]],
+        gjk_tolerance: float | None = None,
     ):
+        """``link_pairs``: the link pairs to check (every shape pair of each one becomes a
+        row); ``gjk_tolerance``: coal's GJK tolerance for shapes without a closed-form
+        distance (boxes) [m] (None: coal's default, 1e-6)."""
         self.model = model
         self.geometry = geometry_model(model, source)
         by_link: dict[str, list[int]] = {}
@@ -91,6 +98,8 @@ class CollisionDistances:
         self.geometry_data = pin.GeometryData(self.geometry)
         for req in self.geometry_data.distanceRequests:
             req.enable_signed_distance = True
+            if gjk_tolerance is not None:
+                req.gjk_tolerance = gjk_tolerance
         self._own_data = model.createData()
         #: Results of coal, one per pair (references into the geometry data: reading them
         #: through this list is several times faster than through ``distanceResults``).
