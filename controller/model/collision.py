@@ -94,7 +94,7 @@ class CollisionDistances:
                     self.pair_links.append((a, b))
                     objs = self.geometry.geometryObjects
                     joints.append((objs[i].parentJoint, objs[k].parentJoint))
-        self._joints = joints
+        self._joint_array = np.array(joints, dtype=int).reshape(-1, 2)
         self.geometry_data = pin.GeometryData(self.geometry)
         for req in self.geometry_data.distanceRequests:
             req.enable_signed_distance = True
@@ -142,22 +142,35 @@ class CollisionDistances:
         """Distance Jacobian rows ``n^T (J_p1 - J_p2)`` [m/rad or m/m], ``len(rows) x nv``.
 
         ``rows``: pair indices (default all). Reads the data of the last :meth:`update`.
+        Each joint's Jacobian is fetched once; the rows are built in one batch.
         """
-        index = range(len(self)) if rows is None else [int(r) for r in rows]
+        index = np.arange(len(self)) if rows is None else np.asarray(rows, dtype=int)
         out = np.zeros((len(index), self.model.nv))
-        for row, k in enumerate(index):
-            p1, p2, n = self.witness(k)
-            j1, j2 = self._joints[k]
-            out[row] = self._point_row(j1, p1, n) - self._point_row(j2, p2, n)
+        if not len(index):
+            return out
+        picked = [self._results[k] for k in index]
+        n = -np.array([r.normal for r in picked])
+        for side, sign in ((0, 1.0), (1, -1.0)):
+            points = np.array(
+                [r.getNearestPoint1() if side == 0 else r.getNearestPoint2() for r in picked]
+            )
+            joints, inverse = np.unique(self._joint_array[index, side], return_inverse=True)
+            jac = np.stack([self._joint_jacobian(int(j)) for j in joints])[inverse]
+            origin = np.array([self._data.oMi[int(j)].translation for j in joints])[inverse]
+            r = points - origin
+            # n . (v + w x r) = n . v + (r x n) . w
+            rxn = r[:, [1, 2, 0]] * n[:, [2, 0, 1]] - r[:, [2, 0, 1]] * n[:, [1, 2, 0]]
+            out += sign * (
+                np.einsum("ki,kin->kn", n, jac[:, :3]) + np.einsum("ki,kin->kn", rxn, jac[:, 3:])
+            )
         return out
 
-    def _point_row(self, joint: int, point: np.ndarray, n: np.ndarray) -> np.ndarray:
-        """``n^T J_p`` for a world point ``p`` fixed to ``joint`` (0: the world, zero row)."""
+    def _joint_jacobian(self, joint: int) -> np.ndarray:
+        """``6 x nv`` Jacobian of a joint's origin, world axes (zero for the world, 0)."""
         if joint == 0:
-            return np.zeros(self.model.nv)
+            return np.zeros((6, self.model.nv))
         jac = pin.getJointJacobian(self.model, self._data, joint, pin.LOCAL_WORLD_ALIGNED)
-        r = point - self._data.oMi[joint].translation
-        return np.asarray(n @ jac[:3] + np.cross(r, n) @ jac[3:])
+        return np.asarray(jac).reshape(6, self.model.nv)  # eigenpy gives (6,) when nv == 1
 
     def closest(self) -> int:
         """Index of the pair with the smallest distance (-1 when no pair is checked)."""
