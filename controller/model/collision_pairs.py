@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 from pydantic import Field
 
-from controller.model.collision import CollisionDistances, link_of
+from controller.model.collision import CollisionDistances
 from controller.model.collision_shapes import collision_shapes
 from controller.model.model_source import ModelSource, StrictModel
 from controller.model.robot import Robot
@@ -196,7 +196,6 @@ __all__ = [
     "CollisionPairs",
     "classify_pairs",
     "collision_path",
-    "link_of",
     "load_collision_pairs",
     "render",
     "rest_poses",
