@@ -14,6 +14,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from config import robot_ids
+from controller.model.collision_pairs import collision_path, load_collision_pairs, rest_poses
+from controller.model.collision_shapes import collision_shapes
 from controller.model.model_export import UNBOUNDED, export_mjcf, export_urdf, num, nums
 from controller.model.robot import Robot, load_robot
 
@@ -65,7 +67,9 @@ def test_committed_urdf_is_up_to_date(robot_id: str) -> None:
 def test_committed_mjcf_is_up_to_date(robot_id: str) -> None:
     r = robot(robot_id)
     committed = r.mjcf_path.read_text(encoding="utf-8")
-    assert committed == export_mjcf(r.model, r.profile), f"{r.mjcf_path} is stale: {REGENERATE}"
+    pairs = load_collision_pairs(collision_path(r)).checked
+    expected = export_mjcf(r.model, r.profile, pairs)
+    assert committed == expected, f"{r.mjcf_path} is stale: {REGENERATE}"
 
 
 # ---------------------------------------------------------------------------------- num
@@ -192,3 +196,89 @@ def test_urdf_and_mjcf_agree_on_joint_axes(robot_id: str) -> None:
         urdf_axis = [float(v) for v in axis_el.get("xyz", "").split()]
         np.testing.assert_allclose(mj.jnt_axis[mj.joint(name).id], urdf_axis, atol=1e-15)
         assert np.linalg.norm(urdf_axis) == pytest.approx(1.0, abs=1e-15)
+
+
+# ----------------------------------------------------------------------------- collision
+def collision_names(robot_id: str) -> list[str]:
+    counts: dict[str, int] = {}
+    names = []
+    for s in collision_shapes(robot(robot_id).model):
+        i = counts.get(s.link, 0)
+        counts[s.link] = i + 1
+        names.append(f"{s.link}/{i}")
+    return names
+
+
+@pytest.mark.parametrize("robot_id", ROBOTS)
+def test_urdf_collision_elements_parse_with_pinocchio(robot_id: str) -> None:
+    path = str(robot(robot_id).urdf_path)
+    model = pin.buildModelFromUrdf(path)
+    geometry = pin.buildGeomFromUrdf(model, path, pin.GeometryType.COLLISION)
+    shapes = collision_shapes(robot(robot_id).model)
+    # a capsule is written as a cylinder and two end spheres
+    assert geometry.ngeoms == sum(3 if s.type == "capsule" else 1 for s in shapes)
+
+
+@pytest.mark.parametrize("robot_id", ROBOTS)
+def test_mjcf_collision_geoms_are_hidden_and_collide_only_in_pairs(robot_id: str) -> None:
+    model = mujoco.MjModel.from_xml_path(str(robot(robot_id).mjcf_path))
+    names = collision_names(robot_id)
+    assert names
+    for name in names:
+        g = model.geom(name)
+        assert int(g.group[0]) == 3, name
+        assert int(g.contype[0]) == 0 and int(g.conaffinity[0]) == 0, name
+    for i in range(model.ngeom):  # every other geom still collides with nothing
+        assert model.geom_contype[i] == 0 and model.geom_conaffinity[i] == 0
+
+
+@pytest.mark.parametrize("robot_id", ROBOTS)
+def test_mjcf_collision_geoms_sit_where_the_shapes_are(robot_id: str) -> None:
+    """At a random pose, each MuJoCo collision geom's centre is the shape's centre."""
+
+    r = robot(robot_id)
+    model = mj_model(robot_id)
+    data = mujoco.MjData(model)
+    pm = pin_model(robot_id)
+    pdata = pm.createData()
+    rng = np.random.default_rng(7)
+    q = pin.neutral(pm)
+    for name in moving_joints(robot_id):
+        value = float(rng.uniform(-1.0, 1.0))
+        data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
+        q[pm.idx_qs[pm.getJointId(name)]] = value
+    mujoco.mj_kinematics(model, data)
+    pin.framesForwardKinematics(pm, pdata, q)
+    for name, s in zip(collision_names(robot_id), collision_shapes(r.model), strict=True):
+        frame = pdata.oMf[pm.getFrameId(s.link, pin.BODY)]
+        np.testing.assert_allclose(data.geom(name).xpos, frame.act(s.pos), atol=1e-9)
+
+
+@pytest.mark.parametrize("robot_id", ROBOTS)
+def test_mjcf_contact_pairs_are_the_checked_pairs(robot_id: str) -> None:
+    model = mujoco.MjModel.from_xml_path(str(robot(robot_id).mjcf_path))
+    checked = set(load_collision_pairs(collision_path(robot(robot_id))).checked)
+    assert checked
+    seen = set()
+    for i in range(model.npair):
+        a = model.geom(model.pair_geom1[i]).name.rsplit("/", 1)[0]
+        b = model.geom(model.pair_geom2[i]).name.rsplit("/", 1)[0]
+        seen.add((a, b))
+    assert seen == checked
+
+
+@pytest.mark.parametrize("robot_id", ROBOTS)
+def test_mujoco_reports_no_robot_contact_at_the_rest_poses(robot_id: str) -> None:
+    """The checked pairs leave the simulated robot free where it starts (home, grippers
+    open or closed)."""
+    r = robot(robot_id)
+    model = mujoco.MjModel.from_xml_path(str(r.mjcf_path))
+    data = mujoco.MjData(model)
+    for pose in rest_poses(r):
+        data.qpos[:] = 0.0
+        for name, value in pose.items():
+            data.qpos[model.jnt_qposadr[model.joint(name).id]] = value
+        mujoco.mj_forward(model, data)
+        assert data.ncon == 0, [
+            (model.geom(c.geom1).name, model.geom(c.geom2).name) for c in data.contact[: data.ncon]
+        ]

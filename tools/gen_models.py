@@ -1,5 +1,9 @@
 #!/usr/bin/env python3
-"""Regenerate robot.urdf and robot.xml of every shipped robot from model.yaml + profile.yaml.
+"""Regenerate robot.urdf, collision.yaml and robot.xml of every shipped robot from model.yaml +
+profile.yaml.
+
+collision.yaml (the checked self-collision pairs) comes from sampling the joint space of the
+generated URDF with a fixed seed (docs/collision.md); robot.xml lists its checked pairs.
 
 Usage: python tools/gen_models.py [--check] [ROBOT_ID ...]
 With --check nothing is written; the exit status is 1 when a committed file is stale.
@@ -11,21 +15,33 @@ import argparse
 import sys
 from pathlib import Path
 
+import pinocchio as pin
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from config import robot_ids
+from controller.model.collision_pairs import classify_pairs, collision_path, render, rest_poses
 from controller.model.model_export import export_mjcf, export_urdf
-from controller.model.robot import load_robot
+from controller.model.robot import Robot, load_robot
 from controller.model.yaml_source import ConfigError
 
 
 def generated_files(robot_id: str) -> dict[Path, str]:
     """The text each generated file of ``robot_id`` should have."""
     robot = load_robot(robot_id)
+    urdf = export_urdf(robot.model, robot.profile)
+    model = pin.buildModelFromXML(urdf)
+    pairs = classify_pairs(robot.model, model, sampled_limits(robot), rest=rest_poses(robot))
     return {
-        robot.urdf_path: export_urdf(robot.model, robot.profile),
-        robot.mjcf_path: export_mjcf(robot.model, robot.profile),
+        robot.urdf_path: urdf,
+        collision_path(robot): render(pairs),
+        robot.mjcf_path: export_mjcf(robot.model, robot.profile, pairs.checked),
     }
+
+
+def sampled_limits(robot: Robot) -> dict[str, tuple[float, float]]:
+    """Joint ranges [rad or m] the pair sampling draws from (unbounded axes stay at 0)."""
+    return {name: (spec.lower, spec.upper) for name, spec in robot.joints.items()}
 
 
 def main() -> int:

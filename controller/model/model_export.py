@@ -5,6 +5,14 @@ Both files are written from the same :class:`~controller.model.model_source.Mode
 inertias are the same numbers in both. ``tools/gen_models.py`` writes them; a test fails when
 the committed files differ from what this module generates.
 
+Collision: the shapes of :mod:`controller.model.collision_shapes`. In the URDF each is a
+``<collision>`` named ``<link>/<index>``; a capsule is written as a cylinder between its end
+points plus a sphere at each end (this urdfdom reads no ``<capsule>``), so tools that read the
+URDF see the same swept volume. In the MJCF each is a geom of the same name in group 3
+(hidden by default) that collides with nothing by itself (``contype``/``conaffinity`` 0): the
+checked pairs of ``collision.yaml`` are listed as explicit ``<contact><pair>`` elements, so
+MuJoCo reports contacts between robot geoms exactly for the pairs imotion checks.
+
 Look: each link is drawn as capsules from its origin to its child joints, a short cylinder
 along each revolute axis, and the shapes the model lists. Inertia: the model's mass (or
 :data:`~controller.model.model_source.DEFAULT_LINK_MASS`) spread as a rod along the link's main
@@ -20,6 +28,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pinocchio as pin
 
+from controller.model.collision_shapes import CollisionShape, align_z, link_collision_shapes
 from controller.model.model_source import DEFAULT_LINK_MASS, Geom, Joint, ModelSource
 from controller.model.profile import RobotProfile
 
@@ -58,15 +67,6 @@ def unit_axis(axis: tuple[float, float, float]) -> np.ndarray:
     return a / np.linalg.norm(a)
 
 
-def _align_z(direction: np.ndarray) -> np.ndarray:
-    """A rotation whose z axis is ``direction`` (unit)."""
-    z = direction
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
-
-
 @dataclass(frozen=True)
 class Shape:
     """A resolved visual shape in its link frame."""
@@ -89,9 +89,16 @@ class LinkInertia:
 class Exporter:
     """Resolves shapes and inertias once; writes URDF and MJCF text."""
 
-    def __init__(self, model: ModelSource, profile: RobotProfile):
+    def __init__(
+        self,
+        model: ModelSource,
+        profile: RobotProfile,
+        pairs: tuple[tuple[str, str], ...] = (),
+    ):
         self.model = model
         self.profile = profile
+        #: Checked link pairs (``collision.yaml``), written as MJCF contact pairs.
+        self.pairs = pairs
         self.parent_joint: dict[str, Joint] = {j.child: j for j in model.joints}
 
     # ----------------------------------------------------------------- shared derivations
@@ -193,6 +200,8 @@ class Exporter:
             ]
         for s in self.shapes(link):
             out += self._urdf_visual(s)
+        for i, c in enumerate(link_collision_shapes(self.model, link)):
+            out += self._urdf_collision(f"{link}/{i}", c)
         out.append("  </link>")
         return out
 
@@ -206,7 +215,7 @@ class Exporter:
         else:  # capsule and cylinder: a cylinder between the end points
             assert s.p1 is not None and s.p2 is not None
             length = float(np.linalg.norm(s.p2 - s.p1))
-            rpy = pin.rpy.matrixToRpy(_align_z((s.p2 - s.p1) / length))
+            rpy = pin.rpy.matrixToRpy(align_z((s.p2 - s.p1) / length))
             geom = f'<cylinder radius="{num(s.size[0])}" length="{num(length)}"/>'
         return [
             "    <visual>",
@@ -215,6 +224,31 @@ class Exporter:
             f'      <material name="{s.color}"/>',
             "    </visual>",
         ]
+
+    @staticmethod
+    def _urdf_collision(name: str, c: CollisionShape) -> list[str]:
+        def element(pos: np.ndarray, rpy: np.ndarray, geom: str) -> list[str]:
+            return [
+                f"    <collision name={quoteattr(name)}>",
+                f'      <origin xyz="{nums(pos)}" rpy="{nums(rpy)}"/>',
+                f"      <geometry>{geom}</geometry>",
+                "    </collision>",
+            ]
+
+        zero = np.zeros(3)
+        if c.type == "box":
+            return element(c.pos, zero, f'<box size="{nums(2 * np.asarray(c.size))}"/>')
+        sphere = f'<sphere radius="{num(c.radius)}"/>'
+        if c.type == "sphere":
+            return element(c.pos, zero, sphere)
+        assert c.p1 is not None and c.p2 is not None
+        rpy = np.asarray(pin.rpy.matrixToRpy(align_z((c.p2 - c.p1) / c.length)))
+        cylinder = f'<cylinder radius="{num(c.radius)}" length="{num(c.length)}"/>'
+        return (
+            element(c.pos, rpy, cylinder)
+            + element(c.p1, zero, sphere)
+            + element(c.p2, zero, sphere)
+        )
 
     def _urdf_joint(self, j: Joint) -> list[str]:
         rpy = [math.radians(a) for a in j.rpy]
@@ -262,13 +296,18 @@ class Exporter:
             "  </asset>",
             "  <default>",
             '    <geom contype="0" conaffinity="0"/>',
+            '    <default class="collision">',
+            '      <geom group="3" rgba="0.9 0.2 0.2 0.4"/>',
+            "    </default>",
             "  </default>",
             "  <worldbody>",
             '    <light pos="1 -1 3" dir="-0.3 0.3 -1" directional="true" diffuse="0.7 0.7 0.7"/>',
             '    <geom name="floor" type="plane" size="0 0 0.05" material="grid"/>',
         ]
         lines += self._mjcf_body(m.root, None, 2)
-        lines += ["  </worldbody>", "</mujoco>"]
+        lines.append("  </worldbody>")
+        lines += self._mjcf_pairs()
+        lines.append("</mujoco>")
         return "\n".join(lines) + "\n"
 
     def _mjcf_body(self, link: str, joint: Joint | None, depth: int) -> list[str]:
@@ -304,6 +343,8 @@ class Exporter:
             out.append(f"{inner}<joint {attrs}/>")
         for s in self.shapes(link):
             out.append(inner + self._mjcf_geom(s))
+        for i, c in enumerate(link_collision_shapes(self.model, link)):
+            out.append(inner + self._mjcf_collision(f"{link}/{i}", c))
         for child in self.model.children(link):
             out += self._mjcf_body(child.child, child, depth + 1)
         out.append(f"{pad}</body>")
@@ -318,10 +359,37 @@ class Exporter:
             place = f'pos="{nums(s.pos)}"'
         return f'<geom type="{s.type}" size="{nums(s.size)}" {place} material="{s.color}"/>'
 
+    @staticmethod
+    def _mjcf_collision(name: str, c: CollisionShape) -> str:
+        if c.type == "capsule":
+            assert c.p1 is not None and c.p2 is not None
+            place = f'fromto="{nums(np.concatenate([c.p1, c.p2]))}"'
+        else:
+            place = f'pos="{nums(c.pos)}"'
+        return (
+            f'<geom name={quoteattr(name)} class="collision" type="{c.type}"'
+            f' size="{nums(c.size)}" {place}/>'
+        )
+
+    def _mjcf_pairs(self) -> list[str]:
+        counts = {
+            link: len(link_collision_shapes(self.model, link)) for link in self.model.link_names
+        }
+        rows = [
+            f'    <pair geom1="{a}/{i}" geom2="{b}/{k}"/>'
+            for a, b in self.pairs
+            for i in range(counts.get(a, 0))
+            for k in range(counts.get(b, 0))
+        ]
+        return ["  <contact>", *rows, "  </contact>"] if rows else []
+
 
 def export_urdf(model: ModelSource, profile: RobotProfile) -> str:
     return Exporter(model, profile).urdf()
 
 
-def export_mjcf(model: ModelSource, profile: RobotProfile) -> str:
-    return Exporter(model, profile).mjcf()
+def export_mjcf(
+    model: ModelSource, profile: RobotProfile, pairs: tuple[tuple[str, str], ...] = ()
+) -> str:
+    """The MJCF text; ``pairs``: the checked link pairs (``collision.yaml``)."""
+    return Exporter(model, profile, pairs).mjcf()

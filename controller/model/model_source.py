@@ -56,6 +56,33 @@ class Geom(StrictModel):
         return self
 
 
+class CollisionGeom(StrictModel):
+    """A collision shape in its link's frame: a capsule or sphere (a box where neither fits)."""
+
+    type: Literal["capsule", "sphere", "box"]
+    #: box: half extents [m] (3 values); sphere, capsule: radius [m] (1 value).
+    size: tuple[Positive, ...]
+    #: Centre of a box or sphere [m].
+    pos: Vec3 = (0.0, 0.0, 0.0)
+    #: End points of a capsule's segment [m]: x1 y1 z1 x2 y2 z2 (distinct points).
+    fromto: tuple[float, float, float, float, float, float] | None = None
+
+    @model_validator(mode="after")
+    def _check_shape(self) -> CollisionGeom:
+        want = 3 if self.type == "box" else 1
+        if len(self.size) != want:
+            raise ValueError(f"a {self.type} takes {want} size value(s), got {len(self.size)}")
+        if self.type == "capsule":
+            if self.fromto is None:
+                raise ValueError("a capsule needs 'fromto' (two end points)")
+            a, b = np.asarray(self.fromto[:3]), np.asarray(self.fromto[3:])
+            if float(np.linalg.norm(b - a)) < 1e-6:
+                raise ValueError("a capsule's end points must differ (use a sphere)")
+        elif self.fromto is not None:
+            raise ValueError(f"a {self.type} is placed by 'pos', not 'fromto'")
+        return self
+
+
 class Link(StrictModel):
     """Inertia and look of one link."""
 
@@ -67,6 +94,10 @@ class Link(StrictModel):
     radius: Annotated[float, Field(ge=0)] | None = None
     geoms: tuple[Geom, ...] = ()
     color: str | None = None
+    #: Collision shapes. Unset: derived from the look (see :mod:`controller.model.collision`):
+    #: the ``radius`` capsules, plus each listed geom (a cylinder as a capsule of the same
+    #: radius and end points). An empty list: the link never collides.
+    collision: tuple[CollisionGeom, ...] | None = None
 
 
 class Joint(StrictModel):
