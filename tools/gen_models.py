@@ -3,7 +3,8 @@
 profile.yaml.
 
 collision.yaml (the checked self-collision pairs) comes from sampling the joint space of the
-generated URDF with a fixed seed (docs/collision.md); robot.xml lists its checked pairs.
+generated URDF with a fixed seed (docs/collision.md); robot.xml has the collision geoms but no
+contact pairs (they halve the simulation's speed; contact tests add them in memory).
 
 Usage: python tools/gen_models.py [--check] [ROBOT_ID ...]
 With --check nothing is written; the exit status is 1 when a committed file is stale.
@@ -35,7 +36,9 @@ def generated_files(robot_id: str) -> dict[Path, str]:
     return {
         robot.urdf_path: urdf,
         collision_path(robot): render(pairs),
-        robot.mjcf_path: export_mjcf(robot.model, robot.profile, pairs.checked),
+        # No contact pairs in the shipped MJCF: they halve MuJoCo's speed (measured on
+        # tests/test_motions.py); contact tests export them in memory (issue 10).
+        robot.mjcf_path: export_mjcf(robot.model, robot.profile),
     }
 
 
