@@ -15,9 +15,9 @@ import pytest
 
 from controller.contract.config import TokensConfig
 from controller.gateway.grpc.auth import TokenInterceptor, is_read_only
-from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
+from controller.vocabulary import SpecAState as S
 from tests.daemon_support import TestDaemon
 
 READ, MOTION = "read-token-1", "motion-token-2"

@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import SpecAState as S
 from controller.model.alarms import AlarmCode
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode
+from controller.vocabulary import SpecAState as S
 from hal.can.backend import CanBackend
 from hal.can.cia402 import State
 from hal.hil import EmulatorProcess

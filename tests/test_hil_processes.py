@@ -29,10 +29,10 @@ import grpc
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import ReturnCode
+from controller.vocabulary import SpecAState as S
 
 ROOT = Path(__file__).resolve().parents[1]
 RATE_HZ = 500

@@ -10,8 +10,8 @@ from collections.abc import Iterator
 import grpc
 import pytest
 
-from controller.gateway.grpc.replies import SpecAState as S
 from controller.rpc import imotion_pb2 as pb
+from controller.vocabulary import SpecAState as S
 from tests.daemon_support import TestDaemon
 
 

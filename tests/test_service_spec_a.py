@@ -18,10 +18,10 @@ import grpc
 import numpy as np
 import pytest
 
-from controller.gateway.grpc.replies import SpecAState as S
 from controller.model.alarms import AlarmCode
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode, RightLeft
+from controller.vocabulary import SpecAState as S
 from hal.interface import HardwareFault
 from tests.daemon_support import TestDaemon
 

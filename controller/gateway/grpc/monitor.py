@@ -16,8 +16,8 @@ import grpc
 
 from controller.contract.snapshot import F_MOTION
 from controller.gateway.grpc.base import alarm_msgs, car_pos_msg
-from controller.gateway.grpc.replies import spec_a_state
 from controller.gateway.services.context import Context
+from controller.gateway.services.states import spec_a_state
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import FrameType, UnitType

@@ -16,7 +16,6 @@ from controller.gateway.grpc.base import (
     side_arg,
     unit_arg,
 )
-from controller.gateway.grpc.replies import spec_a_state
 from controller.gateway.services.context import Context
 from controller.gateway.services.spec_a import (
     AXIS_FIELDS,
@@ -24,6 +23,7 @@ from controller.gateway.services.spec_a import (
     RATE_FIELDS,
     SpecAService,
 )
+from controller.gateway.services.states import spec_a_state
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import FrameType
