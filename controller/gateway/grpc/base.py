@@ -22,9 +22,6 @@ from controller.conversions import hg_to_se3, rad_to_deg, se3_to_hg
 from controller.errors import ArgumentError, ChannelError, ImotionError
 from controller.gateway.grpc.validation import check_request
 from controller.gateway.planning.robot_view import RobotView
-from controller.gateway.services.arguments import finite_arg as finite_arg
-from controller.gateway.services.arguments import positive_arg as positive_arg
-from controller.gateway.services.context import Context as Context
 from controller.gateway.services.jara_arm import CarPos, car_pos
 from controller.logs import get_logger
 from controller.rpc import imotion_pb2 as pb
