@@ -10,7 +10,7 @@ export MUJOCO_GL ?= egl
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev,bench,plot]'
+	$(PY) -m pip install --quiet -e '.[dev,bench,plot,corba]'
 	touch $(STAMP)
 
 run: $(STAMP)  ## the main job: imotiond on SmartPal V in MuJoCo + a scripted session -> out/demo/
