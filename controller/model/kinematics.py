@@ -80,8 +80,16 @@ class Kinematics:
             unit: np.array([self._q_index[n] for n in robot.unit_joints(unit.name)], dtype=int)
             for unit in UnitType
         }
+        #: Each arm's columns: a slice when they are consecutive (a view, no copy).
+        self._arm_columns: dict[RightLeft, slice | np.ndarray] = {}
+        for side in self._elbow_frames:
+            cols = self._units[UnitType[f"{side.name}_ARM"]]
+            consecutive = len(cols) and np.array_equal(
+                cols, np.arange(cols[0], cols[0] + len(cols))
+            )
+            self._arm_columns[side] = slice(cols[0], cols[-1] + 1) if consecutive else cols
         #: Cached per-update quantities (cleared by :meth:`update`).
-        self._elbow_cache: dict[RightLeft, tuple[Swivel, np.ndarray]] = {}
+        self._elbow_cache: dict[RightLeft, Swivel] = {}
         self._elbow_jac_cache: dict[RightLeft, np.ndarray] = {}
         self._vehicle_cache: tuple[np.ndarray, np.ndarray] | None = None
         self._lumbar_rows: dict[LumbarAxis, np.ndarray] = {}
@@ -232,33 +240,31 @@ class Kinematics:
     def has_elbow(self, side: RightLeft) -> bool:
         return side in self._elbow_frames
 
-    def _swivel(self, side: RightLeft) -> tuple[Swivel, np.ndarray]:
+    def _swivel(self, side: RightLeft) -> Swivel:
         cached = self._elbow_cache.get(side)
         if cached is None:
             cached = self._elbow_cache[side] = self._compute_swivel(side)
         return cached
 
-    def _compute_swivel(self, side: RightLeft) -> tuple[Swivel, np.ndarray]:
+    def _compute_swivel(self, side: RightLeft) -> Swivel:
+        # The swivel angle is built from dot and cross products only, so it is the same in
+        # any frame: rotate the two reference directions (2 products) rather than the three
+        # points, and the gradients come out in world axes, as the frame Jacobians are.
         base, fs, fe, fw = self._elbow_frames[side]
         forward, down = self._elbow_dirs[side]
-        r_base = self.data.oMf[base].rotation
         p = self.data.oMf
-        sw = swivel(
-            r_base.T @ p[fs].translation,
-            r_base.T @ p[fe].translation,
-            r_base.T @ p[fw].translation,
-            forward,
-            down,
+        r_base = p[base].rotation
+        return swivel(
+            p[fs].translation, p[fe].translation, p[fw].translation, r_base @ forward, r_base @ down
         )
-        return sw, r_base
 
     def elbow_angle(self, side: RightLeft) -> float:
         """Elbow (swivel) angle [rad]; see :mod:`controller.model.elbow` for the definition."""
-        return self._swivel(side)[0].angle
+        return self._swivel(side).angle
 
     def elbow_offset(self, side: RightLeft) -> float:
         """Distance [m] of the elbow from the shoulder-wrist line (0 = fully stretched)."""
-        return self._swivel(side)[0].offset
+        return self._swivel(side).offset
 
     def elbow_jacobian(self, side: RightLeft) -> np.ndarray:
         """``nv`` gradient of the elbow angle [rad per unit of q]; zero off the arm's joints.
@@ -270,16 +276,16 @@ class Kinematics:
         return cached
 
     def _compute_elbow_jacobian(self, side: RightLeft) -> np.ndarray:
-        sw, r_base = self._swivel(side)
+        sw = self._swivel(side)
         _, fs, fe, fw = self._elbow_frames[side]
-        row = np.zeros(self.nv)
-        for fid, grad in ((fs, sw.grad_shoulder), (fe, sw.grad_elbow), (fw, sw.grad_wrist)):
-            jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
-            row += (r_base @ grad) @ jac[:3]
-        # The angle is invariant to the arm base's motion: keep the arm's own columns only.
-        arm = self.unit_indices(UnitType[f"{side.name}_ARM"])
+        model, data, world = self.model, self.data, pin.LOCAL_WORLD_ALIGNED
+        # The angle is invariant to the arm base's motion: the arm's own columns only.
+        arm = self._arm_columns[side]
+        row = sw.grad_shoulder.dot(pin.getFrameJacobian(model, data, fs, world)[:3, arm])
+        row += sw.grad_elbow.dot(pin.getFrameJacobian(model, data, fe, world)[:3, arm])
+        row += sw.grad_wrist.dot(pin.getFrameJacobian(model, data, fw, world)[:3, arm])
         out = np.zeros(self.nv)
-        out[arm] = row[arm]
+        out[arm] = row
         out.flags.writeable = False
         return out
 
