@@ -247,3 +247,37 @@ def test_a_waist_bend_and_back_with_both_hands_held_comes_to_rest_without_a_warn
         assert core.state == CoreState.READY
         assert float(np.abs(core.v_cmd).max()) < 2e-3
         assert abs(axis_value(core.kin, axis) - goal) < math.radians(0.1)
+
+
+def test_no_net_allocation_per_cycle_after_warm_up():
+    """Issue 14: after warm-up the control cycle allocates nothing it keeps (tracemalloc).
+    Temporaries come and go; CPython's free lists (tuples, floats, dicts) keep a bounded
+    number of blocks, hence a small tolerance: a leak of one small object per cycle (>= 56
+    bytes) would show 45 kB over the window."""
+    import tracemalloc
+
+    import pinocchio as pin
+
+    from controller.motion.motions import CartesianMotion
+    from controller.motion.paths import LinePath
+
+    core = make_core("smartpal5", "mujoco")
+    side = RightLeft.RIGHT
+    start = core.kin.pose(side)
+    end = pin.SE3(start.rotation, start.translation + np.array([0.1, 0.0, 0.1]))
+    motion = CartesianMotion(core.kin, DT, side, LinePath(start, end), (0.01, 1.0), (0.5, 2.0), {})
+    core.start(motion)
+    window = 800
+    tracemalloc.start(1)
+    try:
+        for _ in range(window):
+            core.cycle()
+        before = tracemalloc.take_snapshot()
+        for _ in range(window):
+            core.cycle()
+        after = tracemalloc.take_snapshot()
+    finally:
+        tracemalloc.stop()
+    assert core.motion is motion and not motion.finished  # measured while moving
+    grown = sum(d.size_diff for d in after.compare_to(before, "lineno"))
+    assert grown < 16 * 1024, after.compare_to(before, "lineno")[:5]
