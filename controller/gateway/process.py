@@ -192,7 +192,9 @@ def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> Gateway:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="imotion gRPC gateway (started by imotiond)")
+    parser = argparse.ArgumentParser(
+        description="imotion gateway: gRPC and CORBA (started by imotiond)"
+    )
     parser.add_argument("--runtime", type=Path, required=True)
     args = parser.parse_args(argv)
     # The configuration (tokens included) comes through a pipe from imotiond, never through
