@@ -1,0 +1,67 @@
+"""corba.rtc settings: presets per client convention, overrides, names checked."""
+
+from __future__ import annotations
+
+import pytest
+from pydantic import ValidationError
+
+from controller.contract.rtc_config import PRESETS, TYPE_NAMES, PortNames, RtcConfig
+
+
+def test_default_preset_is_seed_noids_names() -> None:
+    cfg = RtcConfig()
+    assert cfg.preset == "seed_noid"
+    assert cfg.names("jara_arm_common") == PortNames(
+        port="RightManipulatorCommonInterface_Common", instance="ManipulatorCommonInterface_Common"
+    )
+    assert cfg.names("jara_arm_left_middle").instance == "LeftManipulatorCommonInterface_Middle"
+
+
+def test_jara_preset_has_the_mikata_arms_names() -> None:
+    cfg = RtcConfig(preset="jara")
+    assert cfg.names("jara_arm_middle") == PortNames(
+        port="manipMiddle", instance="JARA_ARM_ManipulatorCommonInterface_Middle"
+    )
+    assert cfg.names("jara_arm_common").port == "manipCommon"
+
+
+def test_every_preset_names_every_interface_once_per_port() -> None:
+    for preset in PRESETS.values():
+        assert set(preset) == set(TYPE_NAMES)
+        pairs = [(n.port, n.instance) for n in preset.values()]
+        assert len(pairs) == len(set(pairs))
+
+
+def test_an_override_replaces_one_interface() -> None:
+    cfg = RtcConfig.model_validate(
+        {"preset": "jara", "ports": {"jara_arm_middle": {"port": "arm", "instance": "mid"}}}
+    )
+    assert cfg.names("jara_arm_middle") == PortNames(port="arm", instance="mid")
+    assert cfg.names("jara_arm_common").port == "manipCommon"
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        {"name": "a.b"},
+        {"name": "a/b"},
+        {"name": ""},
+        {"type_name": "x:y"},
+        {"host_context": "a/b"},
+        {"host_context": ""},
+        {"preset": "other"},
+        {"ports": {"nope": {"port": "a", "instance": "b"}}},
+        {"ports": {"spec_a": {"port": "a.b", "instance": "b"}}},
+        {"ports": {"spec_a": {"port": "a"}}},
+        {"rebind_interval_s": 0},
+        {"rebind_interval_s": float("nan")},
+        {"unknown": 1},
+    ],
+)
+def test_bad_settings_are_refused(data: dict[str, object]) -> None:
+    with pytest.raises(ValidationError):
+        RtcConfig.model_validate(data)
+
+
+def test_a_dotted_host_name_is_fine() -> None:
+    assert RtcConfig(host_context="robot.local").host_context == "robot.local"
