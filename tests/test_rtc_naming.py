@@ -134,3 +134,15 @@ def test_the_watcher_leaves_a_live_strangers_binding(
         assert rs.resolve(root, NAME) is None
     finally:
         ours.close()
+
+
+def test_without_a_naming_service_the_component_still_serves(probe_ref: Any) -> None:
+    orb, _ = rs.orb_and_poa()
+    comp = component(probe_ref)
+    try:
+        comp.start(None)
+        assert comp.binds == 0
+        assert comp.ior.startswith("IOR:")
+        assert orb.string_to_object(comp.ior).get_sdo_id() == "imotion0"
+    finally:
+        comp.close()

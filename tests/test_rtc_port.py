@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -160,3 +161,39 @@ def test_two_interfaces_with_one_instance_name_on_a_port_are_refused(
     ]
     with pytest.raises(ValueError, match="same"):
         RtComponent(orb, poa, RtcConfig(), twice, 100.0)
+
+
+def test_a_profile_naming_a_non_port_object_answers_a_code(parts: Any, probe: Any) -> None:
+    comp, _, _ = parts
+    _, probe_ref = probe
+    mine = comp.ports[0].ref
+    ret, _ = mine.connect(RTC.ConnectorProfile("x", "", [probe_ref, mine], []))
+    assert ret == RTC.BAD_PARAMETER
+    ret, _ = mine.connect(RTC.ConnectorProfile("x", "", [mine, probe_ref], []))
+    assert ret != RTC.RTC_OK
+    assert mine.get_connector_profiles() == []
+
+
+def test_concurrent_connects_and_disconnects_keep_the_list_consistent(parts: Any) -> None:
+    comp, consumer, _ = parts
+    mine, theirs = comp.ports[0].ref, consumer.port.ref
+    dup = [nv("dataport.allow_dup_connection", "YES")]
+    errors: list[BaseException] = []
+
+    def work() -> None:
+        try:
+            for _ in range(10):
+                ret, profile = connect(mine, [mine, theirs], dup)
+                assert ret == RTC.RTC_OK
+                assert mine.disconnect(profile.connector_id) == RTC.RTC_OK
+        except BaseException as exc:  # reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    assert mine.get_connector_profiles() == []
+    assert theirs.get_connector_profiles() == []

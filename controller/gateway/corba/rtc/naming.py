@@ -62,7 +62,10 @@ class NameBinding:
 
     def _watch(self) -> None:
         while not self._stop.wait(self._interval):
-            self.check()
+            try:
+                self.check()
+            except Exception:  # never let the watcher die silently: log, retry next time
+                _log.exception("naming: checking %s failed", self.text)
 
     def check(self, force: bool = False) -> bool:
         """Bind the name when it is missing or names a dead object (``force``: whatever it

@@ -53,6 +53,7 @@ class RtComponent:
         self.settings = settings
         self.host = settings.host_context or socket.gethostname()
         self.name_path = [(self.host, "host_cxt"), (settings.name, "rtc")]
+        self._orb = orb
         self._poa = poa
         self._lock = threading.Lock()
         self._binding: NameBinding | None = None
@@ -128,9 +129,18 @@ class RtComponent:
         with self._lock:
             return self._binding.binds if self._binding is not None else 0
 
+    @property
+    def ior(self) -> str:
+        """The component's IOR (for an IOR file when there is no naming service)."""
+        return str(self._orb.object_to_string(self.ref))
+
     def start(self, naming_root: Any) -> None:
-        """Register in the naming service (``CosNaming::NamingContext``) and keep it there."""
+        """Register in the naming service (``CosNaming::NamingContext``; None: none) and keep
+        it registered."""
         if self.rtobject.exited:
+            return
+        if naming_root is None:
+            _log.info("RT component %s: no naming service, not registered", self.settings.name)
             return
         binding = NameBinding(
             naming_root, self.name_path, self.ref, self.settings.rebind_interval_s
