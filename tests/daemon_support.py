@@ -32,7 +32,12 @@ class TestDaemon:
         self.daemon = Daemon(self.cfg)
         self.thread = threading.Thread(target=self.daemon.run, name="loop", daemon=True)
         self.thread.start()
-        self.server, self.address, self.ctx = start_gateway(self.cfg, self.daemon.runtime)
+        self.gateway = start_gateway(self.cfg, self.daemon.runtime)
+        self.server, self.address, self.ctx = (
+            self.gateway.server,
+            self.gateway.address,
+            self.gateway.ctx,
+        )
         self.channel = grpc.insecure_channel(self.address)
         self.spec_a = pb_grpc.IntegratedMotionStub(self.channel)
         self.common = pb_grpc.ManipulatorCommonStub(self.channel)
@@ -73,7 +78,7 @@ class TestDaemon:
 
     def close(self) -> None:
         self.channel.close()
-        self.server.stop(0)
+        self.gateway.stop(0)
         self.daemon.request_shutdown()
         self.thread.join(5.0)
         self.daemon.close()

@@ -16,6 +16,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from controller.contract.corba_config import CorbaConfig, corba_problems, corba_warnings
 from controller.model.yaml_source import ConfigError
 
 DEFAULT_LISTEN = "127.0.0.1:50051"
@@ -146,6 +147,8 @@ class DaemonConfig(_Strict):
     testing: TestingConfig = TestingConfig()
     view: ViewConfig = ViewConfig()
     blackbox: BlackBoxConfig = BlackBoxConfig()
+    #: The original CORBA interfaces beside gRPC (controller/contract/corba_config.py).
+    corba: CorbaConfig = CorbaConfig()
     #: Where the control process and the gateway meet (snapshot, command socket);
     #: default: a fresh private directory under /dev/shm or the temp directory.
     runtime_dir: Path | None = None
@@ -200,13 +203,15 @@ def is_local(address: str) -> bool:
 def security_warnings(cfg: DaemonConfig) -> list[str]:
     """What is allowed but unsafe in this set-up (logged as warnings at start)."""
     kind, _, _ = parse_listen(cfg.listen)
+    warnings = corba_warnings(cfg.corba)
     if kind == "tcp" and not cfg.security.tokens.motion:
-        return [
+        warnings.insert(
+            0,
             f"listening on TCP {cfg.listen} without a motion token: every user of this "
             "machine can drive the robot (use a Unix socket with group permissions, as the "
-            "shipped systemd unit does, or set security.tokens.motion)"
-        ]
-    return []
+            "shipped systemd unit does, or set security.tokens.motion)",
+        )
+    return warnings
 
 
 def security_problems(cfg: DaemonConfig) -> list[str]:
@@ -246,6 +251,7 @@ def security_problems(cfg: DaemonConfig) -> list[str]:
             "(anyone reaching the port sees the robot); set view.allow_remote: true to serve "
             "there anyway"
         )
+    problems.extend(corba_problems(cfg.corba))
     return problems
 
 

@@ -169,8 +169,9 @@ class Daemon:
         """The gateway inside this process (comparison only: shares the loop's GIL)."""
         from controller.gateway.process import start_gateway, start_observers
 
-        self._server, self.address, ctx = start_gateway(self.cfg, self.runtime)
-        self._observers = start_observers(self.cfg, self.runtime, ctx)
+        self._server = start_gateway(self.cfg, self.runtime)
+        self.address = self._server.address
+        self._observers = start_observers(self.cfg, self.runtime, self._server.ctx)
         assert self.address is not None
         return self.address
 

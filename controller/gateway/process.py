@@ -1,4 +1,5 @@
-"""The gRPC gateway: every servicer, authentication, TLS, the listening socket.
+"""The gateway: every gRPC servicer, authentication, TLS, the listening socket, and the
+CORBA servants when ``corba.enabled`` (controller/gateway/corba/).
 
 Runs in its own process (``python -m controller.gateway.process --runtime DIR``, started by
 imotiond) so client load never competes with the control loop for the GIL: it reads the
@@ -18,6 +19,7 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import grpc
 
@@ -35,6 +37,7 @@ from controller.gateway.observe.live_view import LiveView, start_live_view
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
 from controller.gateway.services.context import Context
+from controller.gateway.services.registry import Services
 from controller.logs import setup_logging
 from controller.model.robot import load_robot
 from controller.rpc import imotion_pb2_grpc as pb_grpc
@@ -98,10 +101,13 @@ def start_observers(cfg: DaemonConfig, runtime_dir: Path, ctx: Context) -> Obser
     return out
 
 
-def add_servicers(server: grpc.Server, ctx: Context) -> None:
-    pb_grpc.add_IntegratedMotionServicer_to_server(IntegratedMotionServicer(ctx), server)
+def add_servicers(server: grpc.Server, services: Services) -> None:
+    ctx = services.ctx
+    pb_grpc.add_IntegratedMotionServicer_to_server(
+        IntegratedMotionServicer(ctx, services.spec_a), server
+    )
     pb_grpc.add_MonitorServicer_to_server(MonitorServicer(ctx), server)
-    add_jara_servicers(server, ctx)
+    add_jara_servicers(server, services)
     pb_grpc.add_TestingServicer_to_server(TestingServicer(ctx), server)
 
 
@@ -128,8 +134,42 @@ def bind(server: grpc.Server, cfg: DaemonConfig) -> str:
     return cfg.listen
 
 
-def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> tuple[grpc.Server, str, Context]:
+@dataclass
+class Gateway:
+    """A running gateway: the gRPC server and its address, the services every transport
+    shares, and the CORBA server (None unless ``corba.enabled``)."""
+
+    server: grpc.Server
+    address: str
+    ctx: Context
+    services: Services
+    corba: Any = None  #: controller.gateway.corba.server.CorbaServer
+
+    def stop(self, grace: float | None = None) -> None:
+        if self.corba is not None:
+            self.corba.close()
+            self.corba = None
+        self.server.stop(grace).wait(1.0 if grace else None)
+
+
+def start_corba_if_enabled(cfg: DaemonConfig, services: Services, runtime_dir: Path) -> Any:
+    """The CORBA servants (None when ``corba.enabled`` is false); omniORB is imported only
+    then, so the daemon works without the ``corba`` extra."""
+    if not cfg.corba.enabled:
+        return None
+    try:
+        from controller.gateway.corba.server import start_corba
+    except ImportError as exc:
+        raise RuntimeError(
+            f"corba.enabled is true but omniORBpy cannot be imported ({exc}): "
+            "pip install 'imotion[corba]', or set corba.enabled: false"
+        ) from None
+    return start_corba(cfg, services, runtime_dir)
+
+
+def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> Gateway:
     ctx = build_context(cfg, runtime_dir)
+    services = Services.build(ctx)
     tokens = TokenInterceptor(cfg.security.tokens)
     # Tokens first: an unauthenticated caller learns nothing, not even that its bytes are bad.
     interceptors: list[grpc.ServerInterceptor] = [tokens] if tokens.enabled else []
@@ -139,10 +179,16 @@ def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> tuple[grpc.Server, st
         interceptors=interceptors,
         maximum_concurrent_rpcs=cfg.workers * 8,
     )
-    add_servicers(server, ctx)
+    add_servicers(server, services)
     address = bind(server, cfg)
     server.start()
-    return server, address, ctx
+    gateway = Gateway(server, address, ctx, services)
+    try:
+        gateway.corba = start_corba_if_enabled(cfg, services, runtime_dir)
+    except Exception:
+        server.stop(0)
+        raise
+    return gateway
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -154,9 +200,16 @@ def main(argv: list[str] | None = None) -> int:
     cfg = DaemonConfig.model_validate_json(sys.stdin.readline())
     setup_logging(cfg.log_level, "gateway")
     try:
-        server, address, ctx = start_gateway(cfg, args.runtime)
-        observers = start_observers(cfg, args.runtime, ctx)
+        gateway = start_gateway(cfg, args.runtime)
     except Exception as exc:
+        _log.error("gateway failed to start: %s", exc)
+        print(f"FAILED {exc}", flush=True)
+        return 1
+    address = gateway.address
+    try:
+        observers = start_observers(cfg, args.runtime, gateway.ctx)
+    except Exception as exc:
+        gateway.stop(0)
         _log.error("gateway failed to start: %s", exc)
         print(f"FAILED {exc}", flush=True)
         return 1
@@ -176,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
     _log.info("serving on %s", address)
     done.wait()
     observers.close()
-    server.stop(grace=0.3).wait(1.0)
+    gateway.stop(grace=0.3)
     return 0
 
 

@@ -21,11 +21,16 @@ from controller.contract.snapshot import Snapshot
 from controller.conversions import hg_to_se3, rad_to_deg, se3_to_hg
 from controller.errors import ArgumentError, ChannelError, ImotionError
 from controller.gateway.grpc.validation import check_request
-from controller.gateway.planning.robot_view import RobotView
+from controller.gateway.services.arguments import (  # noqa: F401 (the servicers' imports)
+    ratio_arg,
+    require_gripper,
+    side_arg,
+    unit_arg,
+)
 from controller.gateway.services.jara_arm import CarPos, car_pos
 from controller.logs import get_logger
 from controller.rpc import imotion_pb2 as pb
-from controller.vocabulary import ReturnCode, RightLeft, UnitType
+from controller.vocabulary import ReturnCode
 
 _log = logging.getLogger("imotiond.service")
 _events = get_logger("imotiond.commands")
@@ -105,27 +110,6 @@ def _command_fields(
 
 
 # ------------------------------------------------------------------ argument checks
-def side_arg(view: RobotView, value: int, name: str = "type") -> RightLeft:
-    try:
-        side = RightLeft(value)
-    except ValueError:
-        raise ArgumentError(f"{name}: {value} is not RIGHT (0) or LEFT (1)") from None
-    if side not in view.arms:
-        have = ", ".join(s.name for s in view.arms)
-        raise ArgumentError(f"{name}: this robot has no {side.name} arm (it has {have})")
-    return side
-
-
-def unit_arg(view: RobotView, value: int, name: str = "unit") -> UnitType:
-    names = ("RIGHT_ARM", "LEFT_ARM", "LUMBER", "VEHICLE")
-    if not 0 <= value < len(names):
-        raise ArgumentError(f"{name}: {value} is not a UnitType (0..3)")
-    unit = UnitType[names[value]]
-    if not view.has_unit(unit):
-        raise ArgumentError(f"{name}: this robot has no {unit.name} unit")
-    return unit
-
-
 def hg_arg(msg: pb.HgMatrix, name: str) -> pin.SE3:
     values = list(msg.m)
     if len(values) != 12:
@@ -137,13 +121,6 @@ def hg_arg(msg: pb.HgMatrix, name: str) -> pin.SE3:
 
 def hg_msg(pose: pin.SE3) -> pb.HgMatrix:
     return pb.HgMatrix(m=se3_to_hg(pose).ravel().tolist())
-
-
-def ratio_arg(value: int, name: str) -> float:
-    """A % ratio 0..100 as a fraction 0..1."""
-    if not 0 <= value <= 100:
-        raise ArgumentError(f"{name}: {value} % is outside 0..100 %")
-    return value / 100.0
 
 
 def seq_arg(values: Any, n: int, name: str, what: str = "values") -> np.ndarray:
@@ -175,8 +152,3 @@ def alarm_msgs(snap: Snapshot, with_module: bool = True) -> list[pb.Alarm]:
         )
         for a in snap.alarms
     ]
-
-
-def require_gripper(view: RobotView, side: RightLeft, name: str = "type") -> None:
-    if side.name not in view.robot.profile.grippers:
-        raise ArgumentError(f"{name}: the {side.name} arm has no gripper")

@@ -7,8 +7,6 @@ import grpc
 
 from controller.conversions import ArgumentError
 from controller.gateway.grpc.base import car_pos_arg, ratio_arg, rpc
-from controller.gateway.services.context import Context
-from controller.gateway.services.jara_arm import JaraArmService
 from controller.gateway.services.jara_dual import JaraDualService
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
@@ -120,7 +118,6 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
         return {"rel_pos": pb.HgMatrix(m=self.dual.relative_position().ravel().tolist())}
 
 
-def add_dual_servicers(server: grpc.Server, ctx: Context, arms: JaraArmService) -> None:
-    dual = JaraDualService(arms)
+def add_dual_servicers(server: grpc.Server, dual: JaraDualService) -> None:
     pb_grpc.add_DualManipulatorCommonServicer_to_server(DualManipulatorCommonServicer(dual), server)
     pb_grpc.add_DualManipulatorMiddleServicer_to_server(DualManipulatorMiddleServicer(dual), server)

@@ -23,6 +23,7 @@ from controller.gateway.grpc.base import (
 from controller.gateway.services.context import Context
 from controller.gateway.services.jara_arm import JaraArmService
 from controller.gateway.services.jara_settings import JaraSettingsService
+from controller.gateway.services.registry import Services
 from controller.gateway.services.states import jara_state
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
@@ -365,16 +366,14 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
         return self._circular(request, relative=True)
 
 
-def add_jara_servicers(server: grpc.Server, ctx: Context) -> JaraArmService:
+def add_jara_servicers(server: grpc.Server, services: Services) -> None:
     from controller.gateway.grpc.dual import add_dual_servicers
 
-    arms = JaraArmService(ctx)
-    settings = JaraSettingsService(arms)
+    ctx, arms, settings = services.ctx, services.arms, services.settings
     pb_grpc.add_ManipulatorCommonServicer_to_server(
         ManipulatorCommonServicer(ctx, arms, settings), server
     )
     pb_grpc.add_ManipulatorMiddleServicer_to_server(
         ManipulatorMiddleServicer(ctx, arms, settings), server
     )
-    add_dual_servicers(server, ctx, arms)
-    return arms
+    add_dual_servicers(server, services.dual)

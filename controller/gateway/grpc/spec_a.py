@@ -5,13 +5,10 @@ the reply. The rules (state, order of checks, units) are the service's.
 
 from __future__ import annotations
 
-from controller import __version__
 from controller.conversions import ArgumentError
 from controller.gateway.grpc.base import (
     alarm_msgs,
-    car_pos_msg,
     ratio_arg,
-    require_gripper,
     rpc,
     side_arg,
     unit_arg,
@@ -26,14 +23,13 @@ from controller.gateway.services.spec_a import (
 from controller.gateway.services.states import spec_a_state
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
-from controller.vocabulary import FrameType
 
 
 class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
-    def __init__(self, ctx: Context):
+    def __init__(self, ctx: Context, service: SpecAService | None = None):
         self.ctx = ctx
         self.view = ctx.view
-        self.service = SpecAService(ctx)
+        self.service = service or SpecAService(ctx)
 
     # ------------------------------------------------------------------ always OK
     @rpc(pb.AbortResponse)
@@ -67,17 +63,15 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
 
     @rpc(pb.GetVersionResponse)
     def GetVersion(self, request):
-        cfg = self.ctx.config
-        return {"version": f"imotion {__version__} (robot {cfg.robot}, hal {cfg.hal})"}
+        return {"version": self.service.version()}
 
     @rpc(pb.IsMovingResponse)
     def IsMoving(self, request):
-        snap = self.ctx.snapshot()
-        return {"is_moving": snap.moving or snap.queue > 0}
+        return {"is_moving": self.service.is_moving()}
 
     @rpc(pb.IsServoOnResponse)
     def IsServoOn(self, request):
-        return {"is_servo_on": self.ctx.snapshot().servo_on}
+        return {"is_servo_on": self.service.is_servo_on()}
 
     # ------------------------------------------------------------------ servo
     @rpc(pb.ServoOnResponse)
@@ -91,11 +85,9 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
     # ------------------------------------------------------------------ feedback
     @rpc(pb.GetFeedbackPosCartesianResponse)
     def GetFeedbackPosCartesian(self, request):
-        side = side_arg(self.view, request.type)
-        if request.frame_type not in (0, 1):
-            raise ArgumentError(f"frame_type: {request.frame_type} is not a FrameType (0, 1)")
-        pose, elbow = self.view.pose(self.ctx.snapshot(), side, FrameType(request.frame_type))
-        return {"pos": car_pos_msg(pose, elbow)}
+        hg_mm, elbow = self.service.feedback_cartesian(request.type, request.frame_type)
+        pos = pb.CarPosWithElbow(car_pos=pb.HgMatrix(m=hg_mm.ravel().tolist()), elbow=elbow)
+        return {"pos": pos}
 
     @rpc(pb.GetFeedbackPosJointResponse)
     def GetFeedbackPosJoint(self, request):
@@ -104,16 +96,11 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
 
     @rpc(pb.GetGripperPosResponse)
     def GetGripperPos(self, request):
-        side = side_arg(self.view, request.type)
-        require_gripper(self.view, side)
-        ratio = self.view.gripper_ratio(self.ctx.snapshot(), side)
-        return {"angle_ratio": round(100.0 * (ratio or 0.0))}
+        return {"angle_ratio": self.service.gripper_pos(request.type)}
 
     # ------------------------------------------------------------------ grippers
     def _gripper(self, side_value: int, ratio: float) -> None:
-        side = side_arg(self.view, side_value)
-        require_gripper(self.view, side)
-        self.ctx.call("gripper", side=side, ratio=ratio)
+        self.service.gripper(side_value, ratio)
 
     @rpc(pb.CloseGripperResponse)
     def CloseGripper(self, request):

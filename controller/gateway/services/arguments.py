@@ -10,6 +10,8 @@ from collections.abc import Iterable
 import numpy as np
 
 from controller.errors import ArgumentError
+from controller.gateway.planning.robot_view import RobotView
+from controller.vocabulary import RightLeft, UnitType
 
 
 def finite_arg(value: float, name: str) -> float:
@@ -33,3 +35,36 @@ def finite_values(values: Iterable[float], name: str) -> np.ndarray:
     for i, v in enumerate(arr):
         finite_arg(float(v), f"{name}[{i}]")
     return arr
+
+
+def side_arg(view: RobotView, value: int, name: str = "type") -> RightLeft:
+    try:
+        side = RightLeft(value)
+    except ValueError:
+        raise ArgumentError(f"{name}: {value} is not RIGHT (0) or LEFT (1)") from None
+    if side not in view.arms:
+        have = ", ".join(s.name for s in view.arms)
+        raise ArgumentError(f"{name}: this robot has no {side.name} arm (it has {have})")
+    return side
+
+
+def unit_arg(view: RobotView, value: int, name: str = "unit") -> UnitType:
+    names = ("RIGHT_ARM", "LEFT_ARM", "LUMBER", "VEHICLE")
+    if not 0 <= value < len(names):
+        raise ArgumentError(f"{name}: {value} is not a UnitType (0..3)")
+    unit = UnitType[names[value]]
+    if not view.has_unit(unit):
+        raise ArgumentError(f"{name}: this robot has no {unit.name} unit")
+    return unit
+
+
+def ratio_arg(value: int, name: str) -> float:
+    """A % ratio 0..100 as a fraction 0..1."""
+    if not 0 <= value <= 100:
+        raise ArgumentError(f"{name}: {value} % is outside 0..100 %")
+    return value / 100.0
+
+
+def require_gripper(view: RobotView, side: RightLeft, name: str = "type") -> None:
+    if side.name not in view.robot.profile.grippers:
+        raise ArgumentError(f"{name}: the {side.name} arm has no gripper")

@@ -17,20 +17,34 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
+from controller import __version__
 from controller.bounds import MAX_MOTION_TIME
 from controller.contract.snapshot import Snapshot
-from controller.conversions import deg_to_rad, finite_array, hg_to_se3, mm_to_m
+from controller.conversions import (
+    deg_to_rad,
+    finite_array,
+    hg_to_se3,
+    mm_to_m,
+    rad_to_deg,
+    se3_to_hg,
+)
 from controller.errors import ArgumentError, Refused
 from controller.gateway.planning.cartesian import plan_linear, plan_ptp
 from controller.gateway.planning.cp_hold import AxisRequest, plan_cp_hold
 from controller.gateway.planning.limits import require_tool_offset, vehicle_workspace
 from controller.gateway.planning.redundancy import Range, axis_range
 from controller.gateway.planning.unit_moves import check_unit_rates, plan_unit_move
-from controller.gateway.services.arguments import finite_arg, finite_values, positive_arg
+from controller.gateway.services.arguments import (
+    finite_arg,
+    finite_values,
+    positive_arg,
+    require_gripper,
+    side_arg,
+)
 from controller.gateway.services.context import Context
 from controller.gateway.services.states import spec_a_state
 from controller.model.redundant_axes import RedundantAxis, available_axes, elbow_axis
-from controller.vocabulary import ReturnCode, RightLeft, SpecAState, UnitType
+from controller.vocabulary import FrameType, ReturnCode, RightLeft, SpecAState, UnitType
 
 #: Longest movePTPCartesian time [s]: the longest motion of any request.
 MAX_PTP_TIME = MAX_MOTION_TIME
@@ -109,6 +123,40 @@ class SpecAService:
         self.allowed: dict[RedundantAxis, bool] = {a: a.is_elbow for a in self.axes}
         self.ranges: dict[RedundantAxis, Range | None] = {}
         self._settings = threading.Lock()
+
+    # ------------------------------------------------------------------ queries
+    def version(self) -> str:
+        cfg = self.ctx.config
+        return f"imotion {__version__} (robot {cfg.robot}, hal {cfg.hal})"
+
+    def is_moving(self) -> bool:
+        snap = self.ctx.snapshot()
+        return bool(snap.moving or snap.queue > 0)
+
+    def is_servo_on(self) -> bool:
+        return bool(self.ctx.snapshot().servo_on)
+
+    def feedback_cartesian(self, side_value: int, frame_value: int) -> tuple[np.ndarray, float]:
+        """getFeedbackPosCartesian: HgMatrix (3 x 4, [mm]) and elbow [deg]."""
+        view = self.ctx.view
+        side = side_arg(view, side_value)
+        if frame_value not in (0, 1):
+            raise ArgumentError(f"frame_type: {frame_value} is not a FrameType (0, 1)")
+        pose, elbow = view.pose(self.ctx.snapshot(), side, FrameType(frame_value))
+        return se3_to_hg(pose), float(rad_to_deg(elbow))
+
+    def gripper_pos(self, side_value: int) -> int:
+        """getGripperPos: 0 % closed .. 100 % open."""
+        side = side_arg(self.ctx.view, side_value)
+        require_gripper(self.ctx.view, side)
+        ratio = self.ctx.view.gripper_ratio(self.ctx.snapshot(), side)
+        return round(100.0 * (ratio or 0.0))
+
+    def gripper(self, side_value: int, ratio: float) -> None:
+        """close/open/moveGripper: ``ratio`` 0 closed .. 1 open."""
+        side = side_arg(self.ctx.view, side_value)
+        require_gripper(self.ctx.view, side)
+        self.ctx.call("gripper", side=side, ratio=ratio)
 
     # ------------------------------------------------------------------ settings
     def set_control_point_offset(
