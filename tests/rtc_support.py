@@ -129,7 +129,8 @@ class NamingService:
 def naming_root(orb: Any, naming: NamingService) -> Any:
     import CosNaming
 
-    return orb.string_to_object(naming.corbaloc)._narrow(CosNaming.NamingContext)
+    # Unchecked: no call now (the naming service may be restarting).
+    return orb.string_to_object(naming.corbaloc)._unchecked_narrow(CosNaming.NamingContext)
 
 
 def resolve(root: Any, text: str) -> Any:

@@ -5,7 +5,9 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
+from controller.contract.config import load_config
 from controller.contract.rtc_config import PRESETS, TYPE_NAMES, PortNames, RtcConfig
+from controller.model.yaml_source import ConfigError
 
 
 def test_default_preset_is_seed_noids_names() -> None:
@@ -53,8 +55,7 @@ def test_an_override_replaces_one_interface() -> None:
         {"ports": {"nope": {"port": "a", "instance": "b"}}},
         {"ports": {"spec_a": {"port": "a.b", "instance": "b"}}},
         {"ports": {"spec_a": {"port": "a"}}},
-        {"rebind_interval_s": 0},
-        {"rebind_interval_s": float("nan")},
+        {"rebind_interval_s": 1.0},
         {"unknown": 1},
     ],
 )
@@ -65,3 +66,11 @@ def test_bad_settings_are_refused(data: dict[str, object]) -> None:
 
 def test_a_dotted_host_name_is_fine() -> None:
     assert RtcConfig(host_context="robot.local").host_context == "robot.local"
+
+
+def test_the_daemon_configuration_carries_corba_rtc() -> None:
+    cfg = load_config(None, sets=["corba.rtc.preset=jara", "corba.rtc.name=arm0"])
+    assert cfg.corba.rtc.preset == "jara" and cfg.corba.rtc.name == "arm0"
+    assert cfg.corba.rtc.enabled  # served whenever corba.enabled
+    with pytest.raises(ConfigError, match=r"corba\.rtc\.preset"):
+        load_config(None, sets=["corba.rtc.preset=nope"])

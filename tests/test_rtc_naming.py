@@ -35,8 +35,9 @@ def probe_ref(tmp_path_factory: pytest.TempPathFactory) -> Any:
 
 def component(probe_ref: Any, **settings: Any) -> RtComponent:
     orb, poa = rs.orb_and_poa()
-    cfg = RtcConfig(**{"host_context": "h", "rebind_interval_s": 0.1, **settings})
-    return RtComponent(orb, poa, cfg, [ProvidedInterface("p", "i", rs.PROBE_TYPE, probe_ref)], 1.0)
+    cfg = RtcConfig(**{"host_context": "h", **settings})
+    provided = [ProvidedInterface("p", "i", rs.PROBE_TYPE, probe_ref)]
+    return RtComponent(orb, poa, cfg, provided, 1.0, rebind_interval_s=0.1)
 
 
 def test_start_binds_under_the_host_context_and_close_unbinds(

@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, field_validator
 
 #: The interfaces imotion provides over CORBA, by key (the keys of ``corba.names``): Spec A,
 #: JARA_ARM (right arm), JARA_ARM_LEFT (left arm), JARA_ARM_DUAL.
@@ -151,8 +151,6 @@ class RtcConfig(_Strict):
     #: Component state at start: INACTIVE (as an OpenRTM component after initialize) or
     #: ACTIVE. The state is bookkeeping only (docs/rtc.md): it never moves the robot.
     activate_at_start: bool = False
-    #: How often the naming binding is checked and restored (naming service restarted) [s].
-    rebind_interval_s: float = Field(default=10.0, gt=0.0, le=3600.0)
 
     @field_validator("name", "type_name")
     @classmethod

@@ -1,9 +1,10 @@
 """The RT component around imotion's CORBA servants, as the gateway creates it.
 
-``RtComponent(orb, poa, settings, provided, rate_hz)`` activates the component, its
-execution context, one service port per distinct ``port_name`` of ``provided`` and the SDO
-configuration in ``poa``; ``start(naming_root)`` registers it as
-``<host>.host_cxt/<name>.rtc`` and keeps it registered; ``close()`` disconnects its ports,
+``RtComponent(orb, poa, settings, provided, rate_hz, rebind_interval_s)`` activates the
+component, its execution context, one service port per distinct ``port_name`` of
+``provided`` and the SDO configuration in ``poa``; ``start(naming_root)`` registers it as
+``<host>.host_cxt/<name>.rtc`` and keeps it registered (checked every ``rebind_interval_s``
+[s]; the gateway passes ``corba.rebind_interval_s``); ``close()`` disconnects its ports,
 unbinds the name and deactivates the objects. The servants themselves (``provided``) are
 the caller's: they keep serving whatever the component does.
 """
@@ -14,6 +15,7 @@ import logging
 import socket
 import threading
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from controller.contract.rtc_config import TYPE_NAMES, InterfaceKey, RtcConfig
@@ -49,8 +51,10 @@ class RtComponent:
         settings: RtcConfig,
         provided: Sequence[ProvidedInterface],
         rate_hz: float,
+        rebind_interval_s: float = 10.0,
     ):
         self.settings = settings
+        self.rebind_interval_s = rebind_interval_s
         self.host = settings.host_context or socket.gethostname()
         self.name_path = [(self.host, "host_cxt"), (settings.name, "rtc")]
         self._orb = orb
@@ -58,6 +62,7 @@ class RtComponent:
         self._lock = threading.Lock()
         self._binding: NameBinding | None = None
         self._oids: list[Any] = []
+        self.ior_file: Path | None = None  # written by the gateway, removed at close
         name = settings.name
         self.ports = [
             ServicePort(orb, name, port, items) for port, items in group_by_port(provided).items()
@@ -142,9 +147,7 @@ class RtComponent:
         if naming_root is None:
             _log.info("RT component %s: no naming service, not registered", self.settings.name)
             return
-        binding = NameBinding(
-            naming_root, self.name_path, self.ref, self.settings.rebind_interval_s
-        )
+        binding = NameBinding(naming_root, self.name_path, self.ref, self.rebind_interval_s)
         with self._lock:
             self._binding = binding
         binding.start()
@@ -163,6 +166,8 @@ class RtComponent:
         for port in self.ports:
             port.disconnect_all()
         self._withdraw()
+        if self.ior_file is not None:
+            self.ior_file.unlink(missing_ok=True)
         if self.context.is_running():
             self.context.stop()
         self._deactivate_all()
