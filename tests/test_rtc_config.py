@@ -74,3 +74,11 @@ def test_the_daemon_configuration_carries_corba_rtc() -> None:
     assert cfg.corba.rtc.enabled  # served whenever corba.enabled
     with pytest.raises(ConfigError, match=r"corba\.rtc\.preset"):
         load_config(None, sets=["corba.rtc.preset=nope"])
+
+
+def test_one_instance_name_twice_on_a_port_is_refused() -> None:
+    same = {"port": "arm", "instance": "x"}
+    with pytest.raises(ValidationError, match="one instance name per port"):
+        RtcConfig.model_validate({"ports": {"jara_arm_common": same, "jara_arm_middle": same}})
+    other = {"port": "arm", "instance": "y"}  # one port, two instances: fine
+    RtcConfig.model_validate({"ports": {"jara_arm_common": same, "jara_arm_middle": other}})

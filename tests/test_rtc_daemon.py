@@ -16,6 +16,8 @@ import pytest
 
 pytest.importorskip("rtctree")
 
+from rtctree.rtc import RTC, SDOPackage
+
 from controller.corba.stubs import JARA_ARM
 from controller.vocabulary import JaraState
 from tests import rtc_support as rs
@@ -149,3 +151,46 @@ def test_gateway_and_daemon_restarts_register_again_and_stop_unbinds(running: Ru
     running.daemon = start_daemon(running.naming)  # imotiond restarted
     again = rs.wait_for(running.component, what="the restarted daemon's component")
     assert not again._is_equivalent(after)
+
+
+def test_bad_calls_answer_codes_or_sdo_exceptions_and_the_daemon_stays_up(
+    running: Running,
+) -> None:
+    comp = running.component()
+    ec = comp.get_owned_contexts()[0]
+    port = comp.get_ports()[0]
+    assert comp.attach_context(None) == -1
+    assert comp.get_context(-5) is None and comp.get_context(99999) is None
+    assert comp.detach_context(12345) == RTC.BAD_PARAMETER
+    assert comp.get_context_handle(None) == -1
+    assert not comp.is_alive(None)
+    assert comp.initialize() == RTC.PRECONDITION_NOT_MET
+    assert comp.finalize() == RTC.PRECONDITION_NOT_MET
+    for call, exc in (
+        (lambda: comp.get_sdo_service(""), SDOPackage.InvalidParameter),
+        (lambda: comp.get_service_profile("x"), SDOPackage.InvalidParameter),
+        (lambda: comp.get_status("x"), SDOPackage.InvalidParameter),
+        (comp.get_monitoring, SDOPackage.InterfaceNotImplemented),
+        (
+            lambda: comp.get_configuration().remove_configuration_set("default"),
+            SDOPackage.NotAvailable,
+        ),
+        (lambda: comp.get_configuration().get_configuration_set("x"), SDOPackage.InternalError),
+    ):
+        with pytest.raises(exc):
+            call()
+    assert ec.set_rate(float("nan")) == RTC.BAD_PARAMETER
+    assert ec.set_rate(1e9) == RTC.UNSUPPORTED
+    assert ec.add_component(None) == RTC.BAD_PARAMETER
+    assert ec.remove_component(None) == RTC.BAD_PARAMETER
+    assert ec.activate_component(None) == RTC.BAD_PARAMETER
+    assert ec.get_component_state(None) == RTC.CREATED_STATE
+    assert port.connect(RTC.ConnectorProfile("x", "", [], []))[0] == RTC.BAD_PARAMETER
+    assert port.connect(RTC.ConnectorProfile("x", "", [None, port], []))[0] == RTC.BAD_PARAMETER
+    assert port.connect(RTC.ConnectorProfile("x", "", [comp, port], []))[0] != RTC.RTC_OK
+    assert port.notify_connect(RTC.ConnectorProfile("x", "i", [], []))[0] == RTC.BAD_PARAMETER
+    assert port.disconnect("nope") == RTC.BAD_PARAMETER
+    assert port.notify_disconnect("nope") == RTC.BAD_PARAMETER
+    assert port.get_connector_profiles() == []
+    assert running.daemon.proc.poll() is None
+    assert comp.get_component_profile().instance_name == "imotion0"  # still serving

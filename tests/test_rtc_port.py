@@ -138,6 +138,8 @@ def test_bad_profiles_answer_a_code(parts: Any) -> None:
     other = comp.ports[1].ref
     ret, _ = mine.notify_connect(RTC.ConnectorProfile("x", "id1", [other], []))
     assert ret == RTC.BAD_PARAMETER
+    assert mine.notify_connect(RTC.ConnectorProfile("x", "id2", [], []))[0] == RTC.BAD_PARAMETER
+    assert mine.get_connector_profiles() == []  # nothing kept of a profile it is not in
 
 
 def test_a_vanished_peer_is_dropped_on_read(parts: Any) -> None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, field_validator
+from pydantic import BaseModel, ConfigDict, field_validator, model_validator
 
 #: The interfaces imotion provides over CORBA, by key (the keys of ``corba.names``): Spec A,
 #: JARA_ARM (right arm), JARA_ARM_LEFT (left arm), JARA_ARM_DUAL.
@@ -163,6 +163,20 @@ class RtcConfig(_Strict):
         if value is not None and (not value or "/" in value or ":" in value):
             raise ValueError(f"host_context {value!r}: a host name, without '/' or ':'")
         return value
+
+    @model_validator(mode="after")
+    def _distinct(self) -> RtcConfig:
+        seen: dict[tuple[str, str], str] = {}
+        for key in TYPE_NAMES:
+            names = self.names(key)
+            pair = (names.port, names.instance)
+            if pair in seen:
+                raise ValueError(
+                    f"ports: {key} and {seen[pair]} both use port {names.port!r} with instance "
+                    f"{names.instance!r} (one instance name per port)"
+                )
+            seen[pair] = key
+        return self
 
     def names(self, key: InterfaceKey) -> PortNames:
         """Port and instance name of one interface (override, else the preset's)."""

@@ -116,6 +116,8 @@ class ServicePort(RTC__POA.PortService):
         return ret, profile
 
     def notify_connect(self, profile: Any) -> tuple[Any, Any]:
+        if self._index(profile.ports) < 0:  # not a connection of this port: keep nothing
+            return RTC.BAD_PARAMETER, profile
         if not _allows_duplicates(profile.properties) and self._already_connected(profile):
             return RTC.PRECONDITION_NOT_MET, profile
         profile.properties = list(profile.properties) + [nv(k, v) for k, v in self._published]
