@@ -149,3 +149,57 @@ class CorbaDaemon:
         for path in sorted(self.dir.rglob("*"), reverse=True):
             path.rmdir() if path.is_dir() else path.unlink()
         self.dir.rmdir()
+
+
+class UnixOmniNames:
+    """omniNames on a Unix socket in a private directory: no TCP port, so nothing to race
+    for; ``uri`` is its corbaloc. ``restart`` starts a fresh one (no memory of bindings) on
+    the same socket, as a naming service that crashed and came back."""
+
+    def __init__(self, directory: Path):
+        self.dir = directory
+        self.sock = directory / "ns.sock"
+        self.uri = f"corbaloc:omniunix:{self.sock}:/NameService"
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.runs = 0
+        self.start()
+
+    def start(self) -> None:
+        from controller.gateway.corba.server import omninames_binary
+
+        self.runs += 1
+        data = self.dir / f"data{self.runs}"
+        data.mkdir()
+        log = data / "omniNames.log"
+        self.sock.unlink(missing_ok=True)
+        cmd = [
+            str(omninames_binary()), "-start", "-always", "-datadir", str(data),
+            "-errlog", str(log), "-ORBendPoint", f"giop:unix:{self.sock}",
+        ]  # fmt: skip
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        end = time.monotonic() + START_BOUND
+        while time.monotonic() < end:
+            if log.is_file() and "Checkpointing completed" in log.read_text(errors="replace"):
+                return
+            assert self.proc.poll() is None, "omniNames exited"
+            time.sleep(0.02)
+        raise AssertionError("omniNames did not start")
+
+    def stop(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            self.proc.wait(10.0)
+
+    def restart(self) -> None:
+        self.stop()
+        self.start()
+
+    def resolve(self, name: str) -> Any:
+        """The object bound under ``name`` (CosNaming string name); None if not bound."""
+        import CosNaming
+
+        root = client_orb().string_to_object(self.uri)._narrow(CosNaming.NamingContextExt)
+        try:
+            return root.resolve_str(name)
+        except CosNaming.NamingContext.NotFound:
+            return None

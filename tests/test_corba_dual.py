@@ -96,7 +96,9 @@ def test_moves_grippers_and_hands(d: CorbaDaemon, c: Any, m: Any) -> None:
     d.wait_idle()
     ok(c.servoOFFHand())
     reply = m.openGripper(1, 1)
-    twin = d.dual_middle_grpc.OpenGripper(pb.DualManipulatorMiddleOpenGripperRequest(r_arm=1, l_arm=1))
+    twin = d.dual_middle_grpc.OpenGripper(
+        pb.DualManipulatorMiddleOpenGripperRequest(r_arm=1, l_arm=1)
+    )
     assert (reply.id, reply.comment) == (twin.return_id.id, twin.return_id.comment)
     assert reply.id == ReturnCode.STATUS_ERR
     ok(c.servoONHand())
