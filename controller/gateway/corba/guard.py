@@ -159,7 +159,7 @@ def default_value(desc: Any) -> Any:
         return desc[3][0]
     if kind == tcInternal.tv_struct:
         cls = desc[1]
-        fields = desc[4::2]
+        fields = desc[5::2]
         return cls(*(default_value(d) for d in fields))
     raise TypeError(f"no default for IDL type descriptor kind {kind}")
 

@@ -10,6 +10,7 @@ sees them. Sequence lengths beyond :data:`~controller.bounds.MAX_REPEATED` likew
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -24,6 +25,7 @@ from controller.bounds import (
     ROTATION_ENTRY,
     Quantity,
     bounded,
+    show,
 )
 from controller.conversions import deg_to_rad, m_to_mm, mm_to_m, rad_to_deg
 from controller.errors import ArgumentError
@@ -39,10 +41,11 @@ class Units:
     def scalar_in(self, value: float, quantity: Quantity, name: str) -> float:
         """One number in the spec unit of ``quantity`` (mm or deg based), bounded."""
         x = float(value)
-        if self.si and quantity.unit.startswith("mm"):
-            x = float(m_to_mm(x))
-        elif self.si and quantity.unit.startswith("deg"):
-            x = float(rad_to_deg(x))
+        if self.si and quantity.unit.startswith(("mm", "deg")) and math.isfinite(x):
+            with np.errstate(over="ignore"):
+                x = float(m_to_mm(x) if quantity.unit.startswith("mm") else rad_to_deg(x))
+            if not math.isfinite(x):
+                raise ArgumentError(f"{name}: {show(float(value))} is out of range (SI units)")
         return bounded(x, quantity, name)
 
     def seq_in(self, values: Sequence[float], quantity: Quantity, name: str) -> list[float]:
