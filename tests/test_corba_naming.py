@@ -10,6 +10,8 @@ port is picked, so there is no race for one.
 from __future__ import annotations
 
 import shutil
+import subprocess
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -24,7 +26,7 @@ from controller.corba.stubs import JARA_ARM
 from controller.corba.stubs import _GlobalIDL as A
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode
-from tests.corba_support import CorbaDaemon, UnixOmniNames
+from tests.corba_support import REPO, CorbaDaemon, UnixOmniNames
 
 J = JARA_ARM
 NAMES = {
@@ -121,3 +123,15 @@ def test_si_units_on_the_jara_arm(d: CorbaDaemon) -> None:
     far = JARA_ARM.CarPosWithElbow([[1.0, 0, 0, 1000.0], [0, 1.0, 0, 0], [0, 0, 1.0, 0]], 0.0, 0)
     reply = middle.moveLinearCartesianRel(far)
     assert reply.id == ReturnCode.VALUE_ERR and "1e+06 mm" in reply.comment, reply.comment
+
+
+def test_the_documented_plain_omniorbpy_client_runs(d: CorbaDaemon, ns: UnixOmniNames) -> None:
+    """tools/corba_example.py (docs/corba.md) against this daemon, through the naming service."""
+    assert d.wait_for(lambda: _all_bound(ns), 30.0), d.log
+    done = subprocess.run(
+        [sys.executable, str(REPO / "tools" / "corba_example.py"), "--naming", ns.uri],
+        capture_output=True, text=True, timeout=120, cwd=REPO, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "moveLinearCartesianRel: 0 OK" in done.stdout, done.stdout
+    assert "right control point:" in done.stdout
