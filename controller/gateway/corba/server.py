@@ -55,10 +55,13 @@ class CorbaServer:
         return str(self.orb.object_to_string(self.refs[key]))
 
     def close(self) -> None:
-        """Unbind the names, deactivate the servants, destroy the ORB, stop omniNames."""
+        """Unbind the names, deactivate the servants, destroy the ORB, stop omniNames (an
+        omniNames of our own goes first: nothing to unbind in a naming service that stops)."""
         global _running
+        if self.omninames is not None:
+            stop_omninames(self.omninames)
         if self.naming is not None:
-            self.naming.close()
+            self.naming.close(unbind=self.omninames is None)
         for path in self.ior_files:
             path.unlink(missing_ok=True)
         for servant in self.servants.values():
@@ -71,7 +74,6 @@ class CorbaServer:
             self.orb.destroy()
         except Exception:
             _log.exception("CORBA ORB shutdown failed")
-        stop_omninames(self.omninames)
         with _lock:
             _running = None
 
