@@ -27,7 +27,13 @@ from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import SpecAState
 
 REPO = Path(__file__).resolve().parents[1]
-START_BOUND = 120.0  # s: "starts at all" on a loaded machine, not a timing figure
+START_BOUND = 120.0
+UNITS = (
+    pb.RIGHT_ARM,
+    pb.LEFT_ARM,
+    pb.LUMBER,
+    pb.VEHICLE,
+)  # s: "starts at all" on a loaded machine, not a timing figure
 
 _orb: Any = None
 
@@ -64,7 +70,11 @@ class CorbaDaemon:
         )
         self.lines: list[str] = []
         threading.Thread(target=self._read, daemon=True).start()
-        self.address = self.wait_line(r"msg=\"ready: .* listening on (\S+?)\"").group(1)
+        try:
+            self.address = self.wait_line(r"msg=\"ready: .* listening on (\S+?)\"").group(1)
+        except AssertionError:
+            self._stop()
+            raise
         self.channel = grpc.insecure_channel(self.address)
         self.spec_a_grpc = pb_grpc.IntegratedMotionStub(self.channel)
         self.common_grpc = pb_grpc.ManipulatorCommonStub(self.channel)
@@ -72,6 +82,7 @@ class CorbaDaemon:
         self.dual_common_grpc = pb_grpc.DualManipulatorCommonStub(self.channel)
         self.dual_middle_grpc = pb_grpc.DualManipulatorMiddleStub(self.channel)
         self.orb = client_orb()
+        self.start_pose = {unit: self.unit_joints(unit) for unit in UNITS}
 
     def _read(self) -> None:
         assert self.proc.stderr is not None
@@ -119,13 +130,32 @@ class CorbaDaemon:
     def wait_idle(self, timeout: float = 60.0) -> None:
         assert self.wait_for(lambda: not self.moving(), timeout), "still moving"
 
+    def unit_joints(self, unit: int) -> list[float]:
+        """One unit's measured joints (deg, vehicle mm/deg; empty if the robot lacks it)."""
+        r = self.spec_a_grpc.GetFeedbackPosJoint(pb.GetFeedbackPosJointRequest(type=unit))
+        return list(r.position)
+
     def joints(self) -> np.ndarray:
         """Every unit's measured joints (deg, vehicle mm/deg), over gRPC."""
-        out = []
-        for unit in (pb.RIGHT_ARM, pb.LEFT_ARM, pb.LUMBER, pb.VEHICLE):
-            r = self.spec_a_grpc.GetFeedbackPosJoint(pb.GetFeedbackPosJointRequest(type=unit))
-            out.extend(r.position)
-        return np.array(out)
+        return np.array([q for unit in UNITS for q in self.unit_joints(unit)])
+
+    def back_to_start(self) -> None:
+        """Every unit back to where it was at start-up (each test module begins there, so
+        one module's moves do not leave the next near a limit)."""
+        self.ready()
+        for unit, q in self.start_pose.items():
+            if not q:
+                continue
+            vehicle = unit == pb.VEHICLE
+            request = pb.MoveUnitAbsRequest(
+                unit=unit,
+                abs_pos=q,
+                speed=[200.0, 30.0] if vehicle else [10.0],
+                accel=[400.0, 60.0] if vehicle else [40.0],
+            )
+            r = self.spec_a_grpc.MoveUnitAbs(request).return_id
+            assert r.id == 0, r.comment
+            self.wait_idle()
 
     def ready(self) -> None:
         """Back to Ready with nothing moving: abort, clear alarms, servo on, hands on."""
@@ -139,6 +169,9 @@ class CorbaDaemon:
 
     def close(self) -> None:
         self.channel.close()
+        self._stop()
+
+    def _stop(self) -> None:
         if self.proc.poll() is None:
             self.proc.terminate()
             try:

@@ -24,6 +24,7 @@ NAN = math.nan
 
 @pytest.fixture(scope="module")
 def d(corba_daemon: CorbaDaemon) -> CorbaDaemon:
+    corba_daemon.back_to_start()
     return corba_daemon
 
 

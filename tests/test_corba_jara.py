@@ -60,6 +60,7 @@ class Arm:
 
 @pytest.fixture(scope="module", params=list(ARMS))
 def a(request: pytest.FixtureRequest, corba_daemon: CorbaDaemon) -> Iterator[Arm]:
+    corba_daemon.back_to_start()
     yield Arm(corba_daemon, request.param)
 
 

@@ -9,7 +9,10 @@ port is picked, so there is no race for one.
 
 from __future__ import annotations
 
+import random
 import shutil
+import subprocess
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,11 +23,13 @@ import pytest
 
 pytest.importorskip("omniORB")
 
+import CosNaming
+
 from controller.corba.stubs import JARA_ARM
 from controller.corba.stubs import _GlobalIDL as A
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode
-from tests.corba_support import CorbaDaemon, UnixOmniNames
+from tests.corba_support import REPO, CorbaDaemon, UnixOmniNames
 
 J = JARA_ARM
 NAMES = {
@@ -121,3 +126,51 @@ def test_si_units_on_the_jara_arm(d: CorbaDaemon) -> None:
     far = JARA_ARM.CarPosWithElbow([[1.0, 0, 0, 1000.0], [0, 1.0, 0, 0], [0, 0, 1.0, 0]], 0.0, 0)
     reply = middle.moveLinearCartesianRel(far)
     assert reply.id == ReturnCode.VALUE_ERR and "1e+06 mm" in reply.comment, reply.comment
+
+
+def test_the_documented_plain_omniorbpy_client_runs(d: CorbaDaemon, ns: UnixOmniNames) -> None:
+    """tools/corba_example.py (docs/corba.md) against this daemon, through the naming service."""
+    assert d.wait_for(lambda: _all_bound(ns), 30.0), d.log
+    done = subprocess.run(
+        [sys.executable, str(REPO / "tools" / "corba_example.py"), "--naming", ns.uri],
+        capture_output=True, text=True, timeout=120, cwd=REPO, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "moveLinearCartesianRel: 0 OK" in done.stdout, done.stdout
+    assert "right control point:" in done.stdout
+
+
+def test_start_naming_service_serves_the_names_and_stops_with_the_daemon() -> None:
+    """corba.start_naming_service: our own omniNames on 127.0.0.1. It binds a random port
+    itself; a daemon whose omniNames found the port taken exits, and the test retries with
+    another port (no probe-then-bind race)."""
+    rng = random.Random()
+    for _ in range(5):
+        port = rng.randrange(20000, 60000)
+        try:
+            daemon = CorbaDaemon(
+                "corba.start_naming_service=true", f"corba.naming_port={port}", robot="pa10"
+            )
+            break
+        except AssertionError as exc:
+            assert "omniNames" in str(exc), str(exc)
+    else:
+        pytest.fail("no port for omniNames in 5 tries")
+    try:
+        pid = int(daemon.wait_line(r"omniNames started on 127\.0\.0\.1:\d+ \(pid (\d+)\)").group(1))
+        uri = f"corbaloc::127.0.0.1:{port}/NameService"
+        root = daemon.orb.string_to_object(uri)._narrow(CosNaming.NamingContextExt)
+        assert daemon.wait_for(lambda: _resolves(root, "imotion/IntegratedMotionInterface"), 30.0)
+        obj = root.resolve_str("imotion/IntegratedMotionInterface")
+        assert obj._narrow(A.IntegratedMotionInterface).getVersion()[0].id == ReturnCode.OK
+    finally:
+        daemon.close()
+    assert daemon.wait_for(lambda: not Path(f"/proc/{pid}").exists(), 30.0), "omniNames outlived us"
+
+
+def _resolves(root: Any, name: str) -> bool:
+    try:
+        root.resolve_str(name)
+        return True
+    except CosNaming.NamingContext.NotFound:
+        return False

@@ -73,3 +73,24 @@ def test_every_interface_the_robot_has_and_no_other(arms: set, keys: set) -> Non
         assert made["jara_arm_left_middle"][1] == (
             "JARA_ARM_LEFT::LeftManipulatorCommonInterface_Middle"
         )
+
+
+def test_a_leftover_omninames_of_a_killed_gateway_is_stopped(tmp_path: Path) -> None:
+    """The gateway was killed outright: its omniNames still holds the port. The next start
+    in the same runtime directory stops it first (pid file), then takes the port again."""
+    rng = random.Random()
+    for _ in range(10):
+        port = rng.randrange(20000, 60000)
+        try:
+            first = server.start_omninames(port, tmp_path)
+            break
+        except RuntimeError:
+            continue
+    else:
+        pytest.fail("omniNames did not start on any of 10 ports")
+    second = server.start_omninames(port, tmp_path)  # same port: only free once first stops
+    try:
+        assert first.wait(10.0) is not None
+        assert second.poll() is None
+    finally:
+        server.stop_omninames(second)

@@ -45,6 +45,7 @@ def pos(p: Any = (0.0, 0.0, 0.0)) -> A.RedundantPos:
 
 @pytest.fixture(scope="module")
 def d(corba_daemon: CorbaDaemon) -> CorbaDaemon:
+    corba_daemon.back_to_start()
     return corba_daemon
 
 
@@ -162,32 +163,47 @@ def test_servo_off_refusals_are_the_grpc_ones(d: CorbaDaemon, s: Any, op: str) -
     ok(s.servoOff())
     assert d.wait_for(lambda: d.state() == S.SERVO_OFF)
     code, comment = rid(call())
-    grpc_reply = getattr(d.spec_a_grpc, op[0].upper() + op[1:])(_grpc_twin(op))
+    grpc_reply = getattr(d.spec_a_grpc, op[0].upper() + op[1:])(_grpc_twin(op, s))
     assert (code, comment) == (grpc_reply.return_id.id, grpc_reply.return_id.comment)
     assert code in (ReturnCode.STATUS_ERR, ReturnCode.NOT_SV_ON_ERR)
 
 
-def _grpc_twin(op: str) -> Any:
-    """A gRPC request of the same operation (the servo-off refusal comes before the
-    arguments' reachability, so any valid arguments do)."""
+def _grpc_twin(op: str, s: Any) -> Any:
+    """The gRPC request of the same operation with the same arguments as
+    :func:`motion_calls` (arguments are checked before the state)."""
     rel = pb.HgMatrix(m=np.ravel(hg((0.0, 0.0, 20.0))).tolist())
+    _, cp = ok(s.getFeedbackPosCartesian(A.RIGHT, A.ORIGINAL_FRAME))
+    up = np.array(cp.carPos)
+    up[2, 3] += 20.0
+    up_hg = pb.HgMatrix(m=up.ravel().tolist())
+    target = list(ok(s.getFeedbackPosJoint(A.RIGHT_ARM))[1])
+    target[0] += 5.0
+    lumbar, _, x, y, th = _lumbar_vehicle(s)
+    red_speed = pb.RedundantSpeed(
+        elbow=60, lumbar_ry=10, vehicle_translation=200, vehicle_rotation=20
+    )
+    red_accel = pb.RedundantAccel(
+        elbow=200, lumbar_ry=30, vehicle_translation=400, vehicle_rotation=60
+    )
     return {
-        "moveUnitAbs": pb.MoveUnitAbsRequest(unit=pb.RIGHT_ARM, abs_pos=[0, -10, 0, 90, 0, 0, 0],
+        "moveUnitAbs": pb.MoveUnitAbsRequest(unit=pb.RIGHT_ARM, abs_pos=target,
                                              speed=ARM_SPEED, accel=ARM_ACCEL),
         "moveUnitRel": pb.MoveUnitRelRequest(unit=pb.RIGHT_ARM, rel_pos=[2, 0, 0, 0, 0, 0, 0],
                                              speed=ARM_SPEED, accel=ARM_ACCEL),
         "moveCPHoldAbs": pb.MoveCPHoldAbsRequest(
-            type=pb.RIGHT, abs_pos=pb.RedundantPos(elbow=5), speed=pb.RedundantSpeed(elbow=60),
-            accel=pb.RedundantAccel(elbow=200)),
+            type=pb.RIGHT, abs_pos=pb.RedundantPos(elbow=cp.elbow + 5, lumbar_ry=lumbar,
+                                                   vehicle_x=x, vehicle_y=y, vehicle_theta=th),
+            speed=red_speed, accel=red_accel),
         "moveCPHoldRel": pb.MoveCPHoldRelRequest(
-            type=pb.RIGHT, rel_pos=pb.RedundantPos(elbow=5), speed=pb.RedundantSpeed(elbow=60),
-            accel=pb.RedundantAccel(elbow=200)),
+            type=pb.RIGHT, rel_pos=pb.RedundantPos(elbow=5), speed=red_speed, accel=red_accel),
         "moveLinearCartesianAbs": pb.MoveLinearCartesianAbsRequest(
-            type=pb.RIGHT, abs_hg_mat=rel, speed=G_SPEED, accel=G_ACCEL),
+            type=pb.RIGHT, abs_hg_mat=up_hg, speed=G_SPEED, accel=G_ACCEL),
         "moveLinearCartesianRel": pb.MoveLinearCartesianRelRequest(
             type=pb.RIGHT, rel_hg_mat=rel, speed=G_SPEED, accel=G_ACCEL),
-        "movePTPCartesianAbs": pb.MovePTPCartesianAbsRequest(type=pb.RIGHT, abs_hg_mat=rel, time=1),
-        "movePTPCartesianRel": pb.MovePTPCartesianRelRequest(type=pb.RIGHT, rel_hg_mat=rel, time=1),
+        "movePTPCartesianAbs": pb.MovePTPCartesianAbsRequest(type=pb.RIGHT, abs_hg_mat=up_hg,
+                                                             time=1),
+        "movePTPCartesianRel": pb.MovePTPCartesianRelRequest(type=pb.RIGHT, rel_hg_mat=rel, time=1,
+                                                             is_hold_other_arm=True),
         "openGripper": pb.OpenGripperRequest(type=pb.RIGHT),
         "closeGripper": pb.CloseGripperRequest(type=pb.LEFT),
         "moveGripper": pb.MoveGripperRequest(type=pb.RIGHT, angle_ratio=50),

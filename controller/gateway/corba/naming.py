@@ -88,11 +88,13 @@ class NamingBinder:
         _log.info("bound %s in %s", name, self.uri)
         self.bound[key] = True
 
-    def close(self) -> None:
+    def close(self, unbind: bool = True) -> None:
         """Stop the thread and unbind our names (best effort: only names still ours)."""
         self._done.set()
         if self._thread.is_alive():
             self._thread.join(timeout=CALL_TIMEOUT_MS / 1000.0 * 2)
+        if not unbind:
+            return
         try:
             root = self._context()
             for name, ref in self.names.values():

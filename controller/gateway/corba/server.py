@@ -13,7 +13,9 @@ and per servant key its object reference (``refs``) and IDL type name (``type_na
 from __future__ import annotations
 
 import logging
+import os
 import shutil
+import signal
 import subprocess
 import threading
 import time
@@ -55,10 +57,13 @@ class CorbaServer:
         return str(self.orb.object_to_string(self.refs[key]))
 
     def close(self) -> None:
-        """Unbind the names, deactivate the servants, destroy the ORB, stop omniNames."""
+        """Unbind the names, deactivate the servants, destroy the ORB, stop omniNames (an
+        omniNames of our own goes first: nothing to unbind in a naming service that stops)."""
         global _running
+        if self.omninames is not None:
+            stop_omninames(self.omninames)
         if self.naming is not None:
-            self.naming.close()
+            self.naming.close(unbind=self.omninames is None)
         for path in self.ior_files:
             path.unlink(missing_ok=True)
         for servant in self.servants.values():
@@ -71,7 +76,6 @@ class CorbaServer:
             self.orb.destroy()
         except Exception:
             _log.exception("CORBA ORB shutdown failed")
-        stop_omninames(self.omninames)
         with _lock:
             _running = None
 
@@ -174,6 +178,7 @@ def start_omninames(port: int, runtime_dir: Path) -> subprocess.Popen[bytes]:
     """omniNames on 127.0.0.1:``port``, data in ``<runtime_dir>/omninames`` (fresh each
     start); returns once it answers, RuntimeError if it cannot (e.g. the port is taken)."""
     data = runtime_dir / "omninames"
+    _stop_leftover(data / "pid")  # a gateway killed outright left its omniNames running
     shutil.rmtree(data, ignore_errors=True)
     data.mkdir(parents=True)
     log = data / "omniNames.log"
@@ -201,11 +206,37 @@ def start_omninames(port: int, runtime_dir: Path) -> subprocess.Popen[bytes]:
                 f"{text.strip().splitlines()[-1] if text.strip() else 'no log'}"
             )
         if log.is_file() and "Checkpointing completed" in log.read_text(errors="replace"):
+            (data / "pid").write_text(f"{proc.pid}\n")
             _log.info("omniNames started on 127.0.0.1:%d (pid %d)", port, proc.pid)
             return proc
         time.sleep(0.02)
     stop_omninames(proc)
     raise RuntimeError(f"omniNames on 127.0.0.1:{port} did not start")
+
+
+def _stop_leftover(pid_file: Path) -> None:
+    """Terminate the omniNames a previous gateway of this daemon started (same runtime
+    directory), if it still runs."""
+    try:
+        pid = int(pid_file.read_text())
+        cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
+    except (OSError, ValueError):
+        return
+    if b"omniNames" in cmdline and str(pid_file.parent).encode() in cmdline:
+        _log.warning("stopping the omniNames (pid %d) a previous gateway left running", pid)
+        os.kill(pid, signal.SIGTERM)
+        end = time.monotonic() + 5.0
+        while _alive(pid) and time.monotonic() < end:
+            time.sleep(0.02)
+
+
+def _alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rpartition(")")[2].split()[0] != "Z"
 
 
 def stop_omninames(proc: subprocess.Popen[bytes] | None) -> None:
