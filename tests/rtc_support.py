@@ -38,7 +38,7 @@ module RtcTest {
 PROBE_TYPE = "RtcTest::Probe"
 
 
-def wait_for(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:
+def wait_for(condition: Callable[[], Any], timeout: float = 60.0, what: str = "") -> Any:
     """Poll ``condition`` until truthy (its value) or fail after ``timeout`` [s]."""
     deadline = time.monotonic() + timeout
     while True:
@@ -330,7 +330,7 @@ def rtshell(naming: NamingService, *args: str, check: bool = True) -> str:
     env["RTCTREE_NAMESERVERS"] = naming.address
     env["RTCTREE_ORB_ARGS"] = "-ORBendPoint;giop:tcp:127.0.0.1:"
     done = subprocess.run(
-        [str(BIN / args[0]), *args[1:]], env=env, capture_output=True, text=True, timeout=60
+        [str(BIN / args[0]), *args[1:]], env=env, capture_output=True, text=True, timeout=120
     )
     if check and done.returncode != 0:
         raise AssertionError(f"{' '.join(args)} -> {done.returncode}\n{done.stdout}{done.stderr}")
