@@ -93,6 +93,11 @@ _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQVEL,
     mujoco.mjtWarning.mjWARN_BADQACC,
 )
+#: Their places in ``MjData.warning.number`` (consecutive in MuJoCo's enum: one slice).
+_DIVERGENCE_SLICE = slice(
+    min(int(w) for w in _DIVERGENCE_WARNINGS), max(int(w) for w in _DIVERGENCE_WARNINGS) + 1
+)
+assert _DIVERGENCE_SLICE.stop - _DIVERGENCE_SLICE.start == len(_DIVERGENCE_WARNINGS)
 
 
 def default_joint_names(robot: Robot) -> tuple[str, ...]:
@@ -424,8 +429,9 @@ class MujocoBackend(HardwareInterface):
         self._servo_mask.fill(on)
 
     def _divergence_count(self) -> int:
-        data = self.data
-        return sum(int(data.warning[w].number) for w in _DIVERGENCE_WARNINGS)
+        # ``warning.number`` is a live view of the counters (one array read, not three
+        # MjWarningStat wrappers: this runs every cycle).
+        return int(self.data.warning.number[_DIVERGENCE_SLICE].sum())
 
     def _recover_divergence(self, now: float) -> None:
         """Put a diverged simulation back at the initial configuration at time ``now``; FAULT.

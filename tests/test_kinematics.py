@@ -309,3 +309,76 @@ def test_unit_indices_follow_spec_order(robot_id: str):
         assert [kin.joint_names[i] for i in idx] == list(names)
     grippers = set(kin.robot.gripper_joints)
     assert not grippers & set(kin.joint_names), "gripper joints are not QP variables"
+
+
+def test_cached_elbow_and_vehicle_quantities_follow_every_update():
+    """Issue 14: the elbow swivel and Jacobian and the vehicle pose and Jacobian are cached
+    per update; after each update (and after the original frame moves) they equal a fresh
+    computation, and the cached arrays are read-only (nobody can corrupt the next reader's)."""
+    kin = kinematics("smartpal5")
+    fresh = Kinematics(kin.robot)
+    rng = np.random.default_rng(3)
+    for i in range(5):
+        q = random_configuration(kin, rng)
+        kin.update(q)
+        first = (kin.elbow_angle(RightLeft.RIGHT), kin.elbow_jacobian(RightLeft.LEFT).copy())
+        first_vehicle = kin.vehicle_pose().copy()
+        if i == 3:  # the vehicle pose is read in the original frame: a reset must show
+            kin.reset_original_frame()
+            fresh.update(q)
+            fresh.reset_original_frame()
+        fresh.update(q)
+        assert kin.elbow_angle(RightLeft.RIGHT) == fresh.elbow_angle(RightLeft.RIGHT) == first[0]
+        np.testing.assert_array_equal(kin.elbow_jacobian(RightLeft.LEFT), first[1])
+        np.testing.assert_array_equal(
+            kin.elbow_jacobian(RightLeft.LEFT), fresh.elbow_jacobian(RightLeft.LEFT)
+        )
+        np.testing.assert_array_equal(kin.vehicle_pose(), fresh.vehicle_pose())
+        np.testing.assert_array_equal(kin.vehicle_jacobian(), fresh.vehicle_jacobian())
+        if i == 3:
+            np.testing.assert_allclose(kin.vehicle_pose(), 0.0, atol=1e-12)
+            assert not np.allclose(first_vehicle, 0.0)
+    for cached in (
+        kin.elbow_jacobian(RightLeft.RIGHT),
+        kin.vehicle_pose(),
+        kin.vehicle_jacobian(),
+        kin.lumbar_jacobian(LumbarAxis.Ry),
+    ):
+        with pytest.raises(ValueError):
+            cached[0] = 1.0
+
+
+def test_a_control_cycle_computes_each_elbow_once():
+    """Issue 14: tasks, constraints and the arrival check all read the elbow angle and its
+    Jacobian; one control cycle computes them at most once per arm."""
+    import math as m
+
+    from controller.model.redundant_axes import elbow_axis
+    from controller.motion.motions import CPHoldMotion
+    from tests.motion_support import DT, make_core
+
+    core = make_core("smartpal5")
+    side = RightLeft.RIGHT
+    goal = core.kin.elbow_angle(side) + m.radians(5)
+    speed = np.array([m.radians(20)])
+    core.start(CPHoldMotion(core.kin, DT, (side,), {elbow_axis(side): goal}, speed, 2 * speed))
+    calls = {"swivel": 0, "jacobian": 0}
+    swivel, jacobian = core.kin._compute_swivel, core.kin._compute_elbow_jacobian
+
+    def count_swivel(s: RightLeft):
+        calls["swivel"] += 1
+        return swivel(s)
+
+    def count_jacobian(s: RightLeft):
+        calls["jacobian"] += 1
+        return jacobian(s)
+
+    core.kin._compute_swivel = count_swivel  # type: ignore[method-assign]
+    core.kin._compute_elbow_jacobian = count_jacobian  # type: ignore[method-assign]
+    cycles = 0
+    while core.motion is not None:
+        core.cycle()
+        cycles += 1
+    assert cycles > 10
+    assert calls["swivel"] <= len(core.kin.arms) * cycles
+    assert calls["jacobian"] <= len(core.kin.arms) * cycles

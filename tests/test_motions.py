@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pinocchio as pin
@@ -344,6 +345,9 @@ def test_abort_holds_within_one_cycle():
 
 # ------------------------------------------------------------------ property: joint limits
 _CORES: dict[str, MotionCore] = {}
+#: Random commands per robot: 300 in the suite (1200 in all, about a tenth of its time);
+#: IMOTION_PROPERTY_EXAMPLES=1000 (or more) for a thorough run.
+PROPERTY_EXAMPLES = int(os.environ.get("IMOTION_PROPERTY_EXAMPLES", "300"))
 
 
 def _shared_core(robot_id: str) -> MotionCore:
@@ -353,7 +357,9 @@ def _shared_core(robot_id: str) -> MotionCore:
 
 
 @pytest.mark.parametrize("robot_id", ["smartpal5", "pa10", "rh", "seednoid"])
-@settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    max_examples=PROPERTY_EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(
     dp=st.tuples(*[st.floats(-0.5, 0.5) for _ in range(3)]),
     rot=st.tuples(*[st.floats(-1.2, 1.2) for _ in range(3)]),
@@ -362,8 +368,9 @@ def _shared_core(robot_id: str) -> MotionCore:
     start_offset=st.floats(-0.6, 0.6),
 )
 def test_no_target_and_mask_ever_crosses_a_joint_limit(robot_id, dp, rot, mask, hold, start_offset):
-    """Per robot, 1000 random targets (reachable or not, no reachability check), random
-    masks and random arm postures: commanded positions never leave the joint limits."""
+    """Per robot, PROPERTY_EXAMPLES random targets (reachable or not, no reachability
+    check), random masks and random arm postures: commanded positions never leave the joint
+    limits."""
     core = _shared_core(robot_id)
     kin, hw = core.kin, core.hw
     core.clear_alarms()

@@ -25,7 +25,7 @@ from controller.errors import StateError
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
-from controller.motion.arrival import off_target
+from controller.motion.arrival import hold_posture, off_target
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
@@ -388,6 +388,8 @@ class MotionCore:
         if not motion.finished:
             self._settling = 0.0
             return
+        if self._settling == 0.0:
+            hold_posture(self.kin, self.ik.tasks)
         self._settling += self.step
         commanded = float(np.abs(self.v_cmd).max(initial=0.0))
         calm = SETTLED_SPEED if self._settling < SETTLE_TIME else STILL_SPEED
@@ -396,7 +398,7 @@ class MotionCore:
         if rest and off is None:
             self._end_motion()
         elif self._settling >= ARRIVAL_TIMEOUT:
-            why = off if rest else "still moving"
+            why = off if rest else self._still_moving()
             if not rest:
                 why = off_target(self.kin, self.ik.tasks) or why
             self.alarms.append(
@@ -409,6 +411,15 @@ class MotionCore:
                 )
             )
             self._end_motion()
+
+    def _still_moving(self) -> str:
+        """What keeps the robot from rest: the fastest joint, commanded and measured."""
+        speeds = np.maximum(np.abs(self.v_cmd), np.abs(self.v_measured))
+        k = int(np.argmax(speeds))
+        return (
+            f"still moving: {self.kin.joint_names[k]} commanded {self.v_cmd[k]:.2g}, "
+            f"measured {self.v_measured[k]:.2g} (rest below {STILL_SPEED:g}) [rad/s or m/s]"
+        )
 
     def _end_motion(self) -> None:
         self.motion = None

@@ -15,6 +15,11 @@ Frames
 
 Jacobians are ``6 x nv`` with the linear velocity of the control point first and the angular
 velocity second, both expressed in the axes of the requested frame.
+
+Per-update cache: the elbow swivel (angle, offset, gradient) and Jacobian, the vehicle pose
+and Jacobian are computed at most once per :meth:`Kinematics.update` however many tasks,
+constraints and motions ask (issue 14); the composite waist rows once for good. Arrays
+returned from the cache are read-only: copy before modifying.
 """
 
 from __future__ import annotations
@@ -75,6 +80,19 @@ class Kinematics:
             unit: np.array([self._q_index[n] for n in robot.unit_joints(unit.name)], dtype=int)
             for unit in UnitType
         }
+        #: Each arm's columns: a slice when they are consecutive (a view, no copy).
+        self._arm_columns: dict[RightLeft, slice | np.ndarray] = {}
+        for side in self._elbow_frames:
+            cols = self._units[UnitType[f"{side.name}_ARM"]]
+            consecutive = len(cols) and np.array_equal(
+                cols, np.arange(cols[0], cols[0] + len(cols))
+            )
+            self._arm_columns[side] = slice(cols[0], cols[-1] + 1) if consecutive else cols
+        #: Cached per-update quantities (cleared by :meth:`update`).
+        self._elbow_cache: dict[RightLeft, Swivel] = {}
+        self._elbow_jac_cache: dict[RightLeft, np.ndarray] = {}
+        self._vehicle_cache: tuple[np.ndarray, np.ndarray] | None = None
+        self._lumbar_rows: dict[LumbarAxis, np.ndarray] = {}
         self.model = model
         self.data = model.createData()
         self._q = pin.neutral(model)
@@ -112,6 +130,9 @@ class Kinematics:
         pin.computeJointJacobians(self.model, self.data, self._q)
         pin.updateFramePlacements(self.model, self.data)
         self._oMf = self.data.oMf  # a live view of the placements: each access builds one
+        self._elbow_cache.clear()
+        self._elbow_jac_cache.clear()
+        self._vehicle_cache = None
 
     @property
     def q(self) -> np.ndarray:
@@ -150,6 +171,7 @@ class Kinematics:
         self._set_original(pose.copy())
 
     def _set_original(self, pose: pin.SE3) -> None:
+        self._vehicle_cache = None  # the vehicle pose is read in the original frame
         self._original = pose
         rot6 = np.zeros((6, 6))
         rot6[:3, :3] = rot6[3:, 3:] = pose.rotation.T
@@ -218,40 +240,53 @@ class Kinematics:
     def has_elbow(self, side: RightLeft) -> bool:
         return side in self._elbow_frames
 
-    def _swivel(self, side: RightLeft) -> tuple[Swivel, np.ndarray]:
+    def _swivel(self, side: RightLeft) -> Swivel:
+        cached = self._elbow_cache.get(side)
+        if cached is None:
+            cached = self._elbow_cache[side] = self._compute_swivel(side)
+        return cached
+
+    def _compute_swivel(self, side: RightLeft) -> Swivel:
+        # The swivel angle is built from dot and cross products only, so it is the same in
+        # any frame: rotate the two reference directions (2 products) rather than the three
+        # points, and the gradients come out in world axes, as the frame Jacobians are.
         base, fs, fe, fw = self._elbow_frames[side]
         forward, down = self._elbow_dirs[side]
-        r_base = self.data.oMf[base].rotation
         p = self.data.oMf
-        sw = swivel(
-            r_base.T @ p[fs].translation,
-            r_base.T @ p[fe].translation,
-            r_base.T @ p[fw].translation,
-            forward,
-            down,
+        r_base = p[base].rotation
+        return swivel(
+            p[fs].translation, p[fe].translation, p[fw].translation, r_base @ forward, r_base @ down
         )
-        return sw, r_base
 
     def elbow_angle(self, side: RightLeft) -> float:
         """Elbow (swivel) angle [rad]; see :mod:`controller.model.elbow` for the definition."""
-        return self._swivel(side)[0].angle
+        return self._swivel(side).angle
 
     def elbow_offset(self, side: RightLeft) -> float:
         """Distance [m] of the elbow from the shoulder-wrist line (0 = fully stretched)."""
-        return self._swivel(side)[0].offset
+        return self._swivel(side).offset
 
     def elbow_jacobian(self, side: RightLeft) -> np.ndarray:
-        """``nv`` gradient of the elbow angle [rad per unit of q]; zero off the arm's joints."""
-        sw, r_base = self._swivel(side)
+        """``nv`` gradient of the elbow angle [rad per unit of q]; zero off the arm's joints.
+
+        Read-only (cached until the next :meth:`update`)."""
+        cached = self._elbow_jac_cache.get(side)
+        if cached is None:
+            cached = self._elbow_jac_cache[side] = self._compute_elbow_jacobian(side)
+        return cached
+
+    def _compute_elbow_jacobian(self, side: RightLeft) -> np.ndarray:
+        sw = self._swivel(side)
         _, fs, fe, fw = self._elbow_frames[side]
-        row = np.zeros(self.nv)
-        for fid, grad in ((fs, sw.grad_shoulder), (fe, sw.grad_elbow), (fw, sw.grad_wrist)):
-            jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
-            row += (r_base @ grad) @ jac[:3]
-        # The angle is invariant to the arm base's motion: keep the arm's own columns only.
-        arm = self.unit_indices(UnitType[f"{side.name}_ARM"])
+        model, data, world = self.model, self.data, pin.LOCAL_WORLD_ALIGNED
+        # The angle is invariant to the arm base's motion: the arm's own columns only.
+        arm = self._arm_columns[side]
+        row = sw.grad_shoulder.dot(pin.getFrameJacobian(model, data, fs, world)[:3, arm])
+        row += sw.grad_elbow.dot(pin.getFrameJacobian(model, data, fe, world)[:3, arm])
+        row += sw.grad_wrist.dot(pin.getFrameJacobian(model, data, fw, world)[:3, arm])
         out = np.zeros(self.nv)
-        out[arm] = row[arm]
+        out[arm] = row
+        out.flags.writeable = False
         return out
 
     # ------------------------------------------------------------------ waist, vehicle
@@ -259,15 +294,20 @@ class Kinematics:
         return [LumbarAxis(a) for a in self.robot.profile.redundant_axes.lumbar]
 
     def lumbar_jacobian(self, axis: LumbarAxis) -> np.ndarray:
-        """``nv`` row mapping joint velocities to the composite waist angle's rate."""
-        row = np.zeros(self.nv)
-        for name, weight in self.robot.profile.redundant_axes.lumbar[axis.value].items():
-            row[self._q_index[name]] = weight
+        """``nv`` row mapping joint velocities to the composite waist angle's rate (constant:
+        built once, read-only)."""
+        row = self._lumbar_rows.get(axis)
+        if row is None:
+            row = np.zeros(self.nv)
+            for name, weight in self.robot.profile.redundant_axes.lumbar[axis.value].items():
+                row[self._q_index[name]] = weight
+            row.flags.writeable = False
+            self._lumbar_rows[axis] = row
         return row
 
     def lumbar_angle(self, axis: LumbarAxis) -> float:
         """Composite waist angle [rad] (e.g. SmartPal V lumbarRy = lower + upper pitch)."""
-        return float(self.lumbar_jacobian(axis) @ self._q)
+        return float(self.lumbar_jacobian(axis).dot(self._q))
 
     @property
     def has_vehicle(self) -> bool:
@@ -282,12 +322,23 @@ class Kinematics:
         """Planar pose (x [m], y [m], θ [rad]) of the body frame in the original frame.
 
         θ is unwrapped (taken from the θ joint), so a vehicle that turned twice reads 4π.
+        Read-only (cached until the next :meth:`update`).
         """
-        rel = self._original.actInv(self.body_pose())
-        theta = self._vehicle_theta_joint() - self._original_theta
-        return np.array([rel.translation[0], rel.translation[1], theta])
+        return self._vehicle()[0]
 
     def vehicle_jacobian(self) -> np.ndarray:
-        """``3 x nv`` Jacobian of :meth:`vehicle_pose`."""
-        jac = self._frame_jacobian(self._body_frame, FrameType.ORIGINAL_FRAME)
-        return np.vstack([jac[0], jac[1], jac[5]])
+        """``3 x nv`` Jacobian of :meth:`vehicle_pose` (read-only, cached per update)."""
+        return self._vehicle()[1]
+
+    def _vehicle(self) -> tuple[np.ndarray, np.ndarray]:
+        cached = self._vehicle_cache
+        if cached is None:
+            rel = self._original.actInv(self.body_pose())
+            theta = self._vehicle_theta_joint() - self._original_theta
+            pose = np.array([rel.translation[0], rel.translation[1], theta])
+            jac = self._frame_jacobian(self._body_frame, FrameType.ORIGINAL_FRAME)
+            rows = np.vstack([jac[0], jac[1], jac[5]])
+            pose.flags.writeable = False
+            rows.flags.writeable = False
+            cached = self._vehicle_cache = (pose, rows)
+        return cached

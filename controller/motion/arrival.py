@@ -31,6 +31,21 @@ ELBOW_WEIGHT_SHARE = 0.25
 _LINEAR = (RedundantAxis.VEHICLE_X, RedundantAxis.VEHICLE_Y)
 
 
+def hold_posture(kin: Kinematics, tasks: list[Task]) -> None:
+    """Once a motion's time law has ended: the regularisation (level-0 posture) tasks keep
+    the posture the robot has now instead of pulling on toward the one it started from.
+
+    Pulling all joints toward the start posture trades some joints' errors for others' along
+    the tasks' null space (SmartPal V's two lumbar joints against both held arms after a
+    waist bend): a drift of a few mrad/s that decays over seconds, on target all along but
+    never at rest. What the regularisation is for (a tame redundancy on the way) is over
+    once the targets stop moving.
+    """
+    for task in tasks:
+        if isinstance(task, PostureTask) and task.level == 0:
+            task.reference[task.joints] = kin.q[task.joints]
+
+
 def off_target(kin: Kinematics, tasks: list[Task]) -> str | None:
     """None when every task is within tolerance at ``kin``'s last update; else what is off
     (a short text in interface units)."""
