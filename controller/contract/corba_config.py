@@ -15,6 +15,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from controller.contract.rtc_config import RtcConfig
+
 #: The naming service that ``start_naming_service`` starts (omniNames on 127.0.0.1).
 DEFAULT_NAMING_PORT = 2809
 
@@ -84,6 +86,8 @@ class CorbaConfig(_Strict):
     #: How often the bindings are checked and renewed (a restarted naming service forgets
     #: them) [s].
     rebind_interval_s: float = Field(default=2.0, gt=0.0, le=3600.0)
+    #: The OpenRTM-compatible RT component around the servants (docs/rtc.md).
+    rtc: RtcConfig = RtcConfig()
 
     @field_validator("endpoint")
     @classmethod

@@ -144,8 +144,12 @@ class Gateway:
     ctx: Context
     services: Services
     corba: Any = None  #: controller.gateway.corba.server.CorbaServer
+    rtc: Any = None  #: controller.gateway.corba.rtc.RtComponent (corba.rtc.enabled)
 
     def stop(self, grace: float | None = None) -> None:
+        if self.rtc is not None:  # before the ORB goes: it tells its consumers
+            self.rtc.close()
+            self.rtc = None
         if self.corba is not None:
             self.corba.close()
             self.corba = None
@@ -185,8 +189,12 @@ def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> Gateway:
     gateway = Gateway(server, address, ctx, services)
     try:
         gateway.corba = start_corba_if_enabled(cfg, services, runtime_dir)
+        if gateway.corba is not None:
+            from controller.gateway.corba.rtc.start import start_rtc
+
+            gateway.rtc = start_rtc(cfg, gateway.corba)
     except Exception:
-        server.stop(0)
+        gateway.stop(0)
         raise
     return gateway
 
