@@ -15,10 +15,10 @@ def robot_id(request: pytest.FixtureRequest) -> str:
     return str(request.param)
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def corba_daemon() -> Iterator[Any]:
-    """One imotiond (SmartPal V, sim, CORBA on, IOR files) for every CORBA interface test:
-    started by the first test that asks for it."""
+    """One imotiond (SmartPal V, sim, CORBA on, IOR files) per CORBA interface test module:
+    a daemon left running for the rest of the session would load the 2 cores all along."""
     pytest.importorskip("omniORB")
     from tests.corba_support import CorbaDaemon
 
