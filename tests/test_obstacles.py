@@ -109,7 +109,7 @@ def test_sphere_obstacle_distance_to_the_hanging_forearm() -> None:
     dist.compute(np.zeros(dist.model.nq))
     forearm = obstacle_rows(dist, "ball")["r_arm_link5"]
     assert dist.distances[forearm].min() == pytest.approx(0.2 - 0.05 - 0.045, abs=1e-9)
-    p1, p2, n = dist.witness(forearm[0])
+    _, _, n = dist.witness(forearm[0])
     np.testing.assert_allclose(n, [0, 1, 0], atol=1e-9)  # from the ball towards the arm
 
 
