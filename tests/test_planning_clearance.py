@@ -5,10 +5,12 @@ before anything moves, in every interface family (services without gRPC or a dae
 from __future__ import annotations
 
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from controller.contract.config import load_config
 from controller.errors import Refused
 from controller.gateway.planning.clearance import (
     SECURITY_DISTANCE,
@@ -213,3 +215,30 @@ def test_obstacles_are_placed_in_the_original_frame_at_start_up() -> None:
     kin.update(kin.home())
     kin.reset_original_frame()  # later re-sets do not move obstacles
     np.testing.assert_allclose(startup_origin(kin).translation, [0, 0, 0.4365], atol=1e-12)
+
+
+# ------------------------------------------------------------------- docs/collision.md
+def docs_example() -> str:
+    """The configuration example of docs/collision.md's obstacle section."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "collision.md").read_text()
+    section = text[text.index("## Static obstacles") :]
+    return section.split("```yaml\n", 1)[1].split("```", 1)[0]
+
+
+def test_the_documented_obstacle_example_loads_and_refuses_a_move_into_the_table(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "imotiond.yaml"
+    path.write_text(docs_example())
+    cfg = load_config(path)
+    assert [o.name for o in cfg.obstacles] == ["table", "floor", "wall", "mast", "lamp"]
+    obstacles = [o.model_dump() for o in cfg.obstacles]
+    ctx, _, channel = context(cfg.robot, obstacles=obstacles)
+    kin = Kinematics(robot(cfg.robot))
+    c = ClearanceCheck(kin, cfg.obstacles)
+    c.distances.compute(kin.home())
+    assert c.distances.distances.min() > SECURITY_DISTANCE  # home is clear of them all
+    svc = SpecAService(ctx)
+    err = refused(svc.move_ptp, RIGHT, hg(x=60, z=-120), 3.0, False, True, "rel_hg_mat")
+    assert "of obstacle:table (security distance 20 mm)" in err.comment, err.comment
+    assert "start" not in channel.names()

@@ -104,9 +104,18 @@ def check_unique(obstacles: Sequence[Obstacle]) -> None:
         seen.add(obstacle.name)
 
 
+def startup_origin(model: pin.Model, body_frame: str) -> pin.SE3:
+    """The original frame as set at start-up, in the world: the pose of the body frame
+    (the profile's ``body_frame``) at the zero configuration. Obstacles are given in it
+    (``CollisionDistances(..., origin=startup_origin(kin.model, robot.profile.body_frame))``)."""
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, pin.neutral(model))
+    return data.oMf[model.getFrameId(body_frame, pin.BODY)].copy()
+
+
 def is_obstacle(name: str) -> bool:
     """Whether a ``pair_links`` entry names an obstacle."""
     return name.startswith(OBSTACLE_PREFIX)
 
 
-__all__ = ["OBSTACLE_PREFIX", "Obstacle", "check_unique", "is_obstacle"]
+__all__ = ["OBSTACLE_PREFIX", "Obstacle", "check_unique", "is_obstacle", "startup_origin"]

@@ -26,6 +26,7 @@ from controller.model.collision import CollisionDistances
 from controller.model.collision_pairs import collision_path, load_collision_pairs
 from controller.model.kinematics import Kinematics
 from controller.model.obstacles import Obstacle, is_obstacle
+from controller.model.obstacles import startup_origin as origin_at_zero
 
 #: Security distance d_s [m]: no two bodies (nor a body and an obstacle) closer than this.
 #: TODO(issue 10): read it from the robot profile (key ``collision.security_distance``, added
@@ -39,12 +40,8 @@ JOINT_STEP = 0.01
 
 
 def startup_origin(kin: Kinematics) -> pin.SE3:
-    """The original frame as set at start-up: the body frame's pose at the zero
-    configuration (where static obstacles are given)."""
-    model = kin.model
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, pin.neutral(model))
-    return data.oMf[model.getFrameId(kin.robot.profile.body_frame, pin.BODY)].copy()
+    """The original frame as set at start-up (where static obstacles are given)."""
+    return origin_at_zero(kin.model, kin.robot.profile.body_frame)
 
 
 class ClearanceCheck:
