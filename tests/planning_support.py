@@ -114,12 +114,14 @@ class RecordingChannel:
 
 
 def context(
-    name: str, snap: Snapshot | None = None
+    name: str, snap: Snapshot | None = None, obstacles: list[dict[str, Any]] | None = None
 ) -> tuple[Context, FixedReader, RecordingChannel]:
-    """A service context on robot ``name`` at ``snap`` (home, Ready by default)."""
+    """A service context on robot ``name`` at ``snap`` (home, Ready by default), with the
+    daemon configuration's ``obstacles`` (none by default)."""
     rob = robot(name)
     reader = FixedReader(snap if snap is not None else snapshot(rob))
-    cfg = load_config(None, {"robot": name, "hal": "ideal"})
+    cfg = load_config(None, {"robot": name, "hal": "ideal", "obstacles": obstacles or []})
     channel = RecordingChannel()
-    ctx = Context(cfg, view(rob, reader), Planner(view(rob, reader), cfg.period), channel)
+    planner = Planner(view(rob, reader), cfg.period, cfg.obstacles)
+    ctx = Context(cfg, view(rob, reader), planner, channel)
     return ctx, reader, channel

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from config import robot_ids
-from controller.model.collision import CollisionDistances, geometry_model, link_of
+from controller.model.collision import CollisionDistances, geometry_model, hand_links, link_of
 from controller.model.collision_pairs import collision_path, load_collision_pairs
 from controller.model.collision_shapes import collision_shapes
 from controller.model.kinematics import Kinematics
@@ -176,3 +176,36 @@ def test_default_gjk_tolerance_gives_the_same_distances_to_a_micrometre(robot_id
         tight.compute(q)
         default.compute(q)
         np.testing.assert_allclose(default.distances, tight.distances, atol=1e-5)
+
+
+# ---------------------------------------------------------------------------------- padding
+def test_padding_shrinks_the_hand_rows_by_its_radius_and_keeps_the_jacobian() -> None:
+    k = kinematics("smartpal5")
+    dist = distances("smartpal5")
+    hand = hand_links(k.robot.model, "r_flange")
+    assert hand == ["r_flange", "r_thumb"]
+    q = random_configurations(k.model, 1, seed=3)[0]
+    dist.compute(q)
+    before, jac = dist.distances.copy(), dist.jacobian()
+    dist.set_padding(hand, 0.03)
+    dist.compute(q)
+    rows = np.array([a in hand or b in hand for a, b in dist.pair_links])
+    both = np.array([a in hand and b in hand for a, b in dist.pair_links])
+    expected = np.where(rows, 0.03, 0.0) * (1 + both)
+    np.testing.assert_allclose(before - dist.distances, expected, atol=1e-9)
+    separated = dist.distances > 1e-3
+    np.testing.assert_allclose(dist.jacobian()[separated], jac[separated], atol=1e-9)
+    dist.set_padding(hand, 0.0)
+    dist.compute(q)
+    np.testing.assert_allclose(dist.distances, before, atol=1e-12)
+    assert dist.padding == {"r_flange": 0.0, "r_thumb": 0.0}
+
+
+def test_padding_refuses_bad_values_and_unknown_links() -> None:
+    dist = distances("pa10")
+    with pytest.raises(ValueError, match="finite and >= 0"):
+        dist.set_padding(["flange"], -0.01)
+    with pytest.raises(ValueError, match="finite and >= 0"):
+        dist.set_padding(["flange"], float("nan"))
+    with pytest.raises(ValueError, match="not a link with collision shapes"):
+        dist.set_padding(["nowhere"], 0.01)

@@ -71,6 +71,7 @@ def test_ptp_joint_at_full_speed_never_passes_its_target(noid):
     d = noid
     assert code(d.middle.SetSpeedJoint(M("SetSpeedJoint", spd_ratio=100))) == OK
     target = jara_joints(d)[:7]
+    start = target[2]
     target[2] = -40.0
     assert code(d.middle.MovePTPJointAbs(M("MovePTPJointAbs", joint_points=target))) == OK
     assert d.wait_idle()
@@ -79,6 +80,11 @@ def test_ptp_joint_at_full_speed_never_passes_its_target(noid):
     samples = watch(d, lambda: jara_joints(d)[:7])
     assert samples[:, 2].max() <= 85.0 + 1e-3, samples[:, 2].max()
     np.testing.assert_allclose(samples[-1], target, atol=1e-3)
+    # back: at 85 deg the forearm is inside the waist's collision shape (issue 10), where
+    # the next tests' Cartesian moves would be refused for going deeper
+    target[2] = start
+    assert code(d.middle.MovePTPJointAbs(M("MovePTPJointAbs", joint_points=target))) == OK
+    assert d.wait_idle()
 
 
 # ------------------------------------------- 15.2 / 17.4 elbow changes in linear moves

@@ -51,6 +51,12 @@ def test_quick_session_runs_and_writes_its_outputs(tmp_path: Path) -> None:
     assert figures["line_end_error_mm"] < 1.0
     assert figures["vehicle_held_hand_error_mm"] < 1.0
     assert figures["paused_line_end_error_mm"] < 1.0
+    # the move into the body is refused before anything moves, naming the two links
+    refused = figures["refused_move"]
+    assert refused["code"] == "CANNOT_REACH_TARGET_ERR", refused
+    assert "of lumbar_upper_link (security distance" in refused["comment"]
+    assert figures["refused_move_hand_moved_mm"] < 0.01
+    assert figures["cp_hold_into_body"]["held_hand_moved_mm"] < 1.0  # refused or stopped short
     assert (tmp_path / "joints.png").stat().st_size > 10_000
     assert (tmp_path / "session.mcap").stat().st_size > 1000
     assert (tmp_path / "session-joints.png").stat().st_size > 10_000

@@ -45,7 +45,7 @@ def cp_hold(d, **rel):
 
 def test_elbow_swing_moves_neither_waist_nor_vehicle(d):
     (waist0, vehicle0), (right0, left0) = state(d)
-    cp_hold(d, elbow=30)
+    cp_hold(d, elbow=-30)  # outward (+30 brings the elbow within 20 mm of the torso)
     (waist1, vehicle1), (right1, left1) = state(d)
     np.testing.assert_allclose(waist1, waist0, atol=1e-9)
     np.testing.assert_allclose(vehicle1, vehicle0, atol=1e-9)

@@ -9,8 +9,11 @@ IntegratedMotion): servoOn; a straight-line move of the right hand; an elbow swi
 hand held (moveCPHoldRel); a waist bend (moveUnitAbs LUMBER); a vehicle move with both
 hands held (moveCPHoldRel vehicle_x: when the body moves, CP-hold holds both control points
 on a two-arm robot; both hands' drift is measured and printed); a move that is paused and
-resumed (the hand back down, before the vehicle move); a move that is stopped. Every
-ReturnID and every state change (Monitor.StreamState) is printed. Writes to ``--out``:
+resumed (the hand back down, before the vehicle move); a move that is stopped; a move of
+the hand into the body, refused before anything moves with a comment naming the two links;
+a CP-hold swinging the elbow into the body (refused by the gateway's dry run, or stopped
+short by the loop's collision rows: reported, not required). Every ReturnID and every state
+change (Monitor.StreamState) is printed. Writes to ``--out``:
 
     frames/frame_NNN.png   the robot rendered from the streamed joints, every 0.5 s
     frames.png             a contact sheet of the frames
@@ -262,14 +265,17 @@ class Session:
     def now(self) -> float:
         return time.monotonic() - self.t0
 
-    def call(self, label: str, method: Callable[..., Any], request: Any) -> Any:
-        """One RPC; prints and records its ReturnID."""
+    def call(
+        self, label: str, method: Callable[..., Any], request: Any, refusal: bool = False
+    ) -> Any:
+        """One RPC; prints and records its ReturnID. ``refusal``: the call demonstrates a
+        refusal (a refused answer is not counted as a failure of the session)."""
         reply = method(request, timeout=60.0)
         rid = reply.return_id
         name = CODES.get(rid.id, str(rid.id))
         log(f"  [{self.now():6.2f} s] {label}: {name} ({rid.id}) {rid.comment}")
         entry = {"t": round(self.now(), 3), "call": label, "id": rid.id, "code": name}
-        self.returns.append({**entry, "comment": rid.comment})
+        self.returns.append({**entry, "comment": rid.comment, "refusal": refusal})
         return reply
 
     def moving(self) -> bool:
@@ -465,6 +471,8 @@ def run_script(s: Session, quick: bool) -> dict[str, Any]:
     log(f"  stopped with the vehicle at {veh2} (x, y mm, theta deg)")
     figures["stopped_vehicle_x_mm"] = veh2[0]
 
+    figures.update(collision_steps(s))
+
     log("\n== end")
     s.call("getState", a.GetState, pb.GetStateRequest())
     s.call("getActiveAlarm", a.GetActiveAlarm, pb.GetActiveAlarmRequest())
@@ -479,6 +487,59 @@ def run_script(s: Session, quick: bool) -> dict[str, Any]:
         f"  loop: {loop.cycles} cycles, {loop.overruns} overruns; last second: wake latency "
         f"p99 {loop.wake_latency.p99_us:.0f} us, compute p99 {loop.compute.p99_us:.0f} us"
     )
+    return figures
+
+
+def collision_steps(s: Session) -> dict[str, Any]:
+    """7. A move into the body, refused before anything moves (the comment names the two
+    links); 8. a CP-hold swinging the elbow into the body (issue 10). Step 8 is reported,
+    not required: the gateway refuses it when its dry run comes within the security
+    distance, the control loop's collision rows stop it short of the body otherwise."""
+    a = s.a
+    figures: dict[str, Any] = {}
+    p = s.begin("7. right hand 200 mm towards the body (PTP): refused, nothing moves")
+    before = s.pose(RIGHT)
+    reply = s.call(
+        "movePTPCartesianRel(RIGHT, y +200 mm, 3 s)",
+        a.MovePTPCartesianRel,
+        pb.MovePTPCartesianRelRequest(type=RIGHT, rel_hg_mat=hg(dy=200.0), time=3.0),
+        refusal=True,
+    )
+    rid = reply.return_id
+    if rid.id == 0:  # not refused (another collision model?): let it end
+        s.wait_started()
+        s.wait_idle()
+    moved = 1e3 * float(np.linalg.norm(s.pose(RIGHT)[:3, 3] - before[:3, 3]))
+    log(f"  refused: {rid.id != 0}; the hand moved {moved:.3f} mm")
+    figures["refused_move"] = {"code": CODES.get(rid.id, str(rid.id)), "comment": rid.comment}
+    figures["refused_move_hand_moved_mm"] = round(moved, 3)
+    s.end(p)
+
+    p = s.begin("8. elbow swing +60 deg into the body, right hand held (CP-hold)")
+    held = s.pose(RIGHT)
+    reply = s.call(
+        "moveCPHoldRel(RIGHT, elbow +60 deg)",
+        a.MoveCPHoldRel,
+        cp_hold_rel(RIGHT, elbow=60.0),
+        refusal=True,
+    )
+    rid = reply.return_id
+    outcome = "refused before moving"
+    if rid.id == 0:
+        s.wait_started()
+        s.wait_idle()
+        state = s.a.GetState(pb.GetStateRequest())
+        outcome = f"ran; state {STATES.get(state.status_id, state.status_id)}"
+        s.call("getActiveAlarm", a.GetActiveAlarm, pb.GetActiveAlarmRequest(), refusal=True)
+    drift = 1e3 * float(np.linalg.norm(s.pose(RIGHT)[:3, 3] - held[:3, 3]))
+    log(f"  {outcome}: {rid.comment or '(no comment)'}; held hand moved {drift:.3f} mm")
+    figures["cp_hold_into_body"] = {
+        "code": CODES.get(rid.id, str(rid.id)),
+        "comment": rid.comment,
+        "outcome": outcome,
+        "held_hand_moved_mm": round(drift, 3),
+    }
+    s.end(p)
     return figures
 
 
@@ -637,7 +698,7 @@ def main() -> int:
     result["daemon_exit"] = code
     result["daemon_stop_s"] = round(took, 2)
     result["seconds"] = round(time.monotonic() - t_start, 1)
-    unexpected = [r for r in result.get("returns", []) if r["id"] != 0]
+    unexpected = [r for r in result.get("returns", []) if r["id"] != 0 and not r["refusal"]]
     result["ok"] = "error" not in result and code == 0 and not unexpected
     (out / "session.json").write_text(json.dumps(result, indent=1))
     summary = {k: v for k, v in result.items() if k not in ("returns", "state_changes")}

@@ -17,6 +17,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from controller.contract.corba_config import CorbaConfig, corba_problems, corba_warnings
+from controller.model.obstacles import Obstacle, check_unique
 from controller.model.yaml_source import ConfigError
 
 DEFAULT_LISTEN = "127.0.0.1:50051"
@@ -155,6 +156,17 @@ class DaemonConfig(_Strict):
     #: SIGTERM: longest decelerating stop before the servos go off [s].
     stop_timeout_s: float = Field(default=1.2, gt=0.0, le=10.0)
     log_level: Literal["debug", "info", "warning", "error"] = "info"
+    #: Static obstacles (a table, a wall, a mast) in the original frame as set at start-up:
+    #: boxes, spheres, capsules, planes (controller.model.obstacles; docs/collision.md).
+    #: Cartesian moves whose path would bring the robot within the security distance of
+    #: one are refused.
+    obstacles: tuple[Obstacle, ...] = ()
+
+    @field_validator("obstacles")
+    @classmethod
+    def _obstacles(cls, value: tuple[Obstacle, ...]) -> tuple[Obstacle, ...]:
+        check_unique(value)
+        return value
 
     @field_validator("listen")
     @classmethod

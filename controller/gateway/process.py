@@ -68,7 +68,8 @@ def build_context(cfg: DaemonConfig, runtime_dir: Path) -> Context:
     joints = json.loads((runtime_dir / JOINTS_NAME).read_text())
     view = RobotView(robot, SnapshotReader(runtime_dir / SNAPSHOT_NAME, len(joints)), joints)
     plan_view = RobotView(robot, SnapshotReader(runtime_dir / SNAPSHOT_NAME, len(joints)), joints)
-    return Context(cfg, view, Planner(plan_view, cfg.period), CommandClient(runtime_dir))
+    planner = Planner(plan_view, cfg.period, cfg.obstacles)
+    return Context(cfg, view, planner, CommandClient(runtime_dir))
 
 
 def own_view(ctx: Context, runtime_dir: Path) -> RobotView:

@@ -14,6 +14,7 @@ its link (world axes).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 
 import coal
@@ -22,6 +23,7 @@ import pinocchio as pin
 
 from controller.model.collision_shapes import CollisionShape, align_z, collision_shapes
 from controller.model.model_source import ModelSource
+from controller.model.obstacles import Obstacle, check_unique, is_obstacle
 
 
 def _geometry(shape: CollisionShape) -> tuple[coal.CollisionGeometry, pin.SE3]:
@@ -57,9 +59,29 @@ def geometry_model(model: pin.Model, source: ModelSource) -> pin.GeometryModel:
     return gm
 
 
+def _size(geom: coal.CollisionGeometry) -> np.ndarray:
+    """A shape's inflatable size: radius of a capsule or sphere, half sides of a box [m]."""
+    if isinstance(geom, coal.Box):
+        return np.array(geom.halfSide, dtype=float)
+    if isinstance(geom, (coal.Capsule, coal.Sphere)):
+        return np.array([geom.radius])
+    return np.zeros(0)
+
+
 def link_of(geometry_name: str) -> str:
     """The link of a geometry object named by :func:`geometry_model`."""
     return geometry_name.rsplit("/", 1)[0]
+
+
+def hand_links(source: ModelSource, flange: str) -> list[str]:
+    """The flange link and every link below it (gripper, fingers): where a held object's
+    padding goes (:meth:`CollisionDistances.set_padding`)."""
+    out, todo = [], [flange]
+    while todo:
+        link = todo.pop(0)
+        out.append(link)
+        todo += [j.child for j in source.children(link)]
+    return out
 
 
 class CollisionDistances:
@@ -74,15 +96,42 @@ class CollisionDistances:
         source: ModelSource,
         link_pairs: Iterable[tuple[str, str]],
         gjk_tolerance: float | None = None,
+        obstacles: Sequence[Obstacle] = (),
+        origin: pin.SE3 | None = None,
     ):
         """``link_pairs``: the link pairs to check (every shape pair of each one becomes a
         row); ``gjk_tolerance``: coal's GJK tolerance for shapes without a closed-form
-        distance (boxes) [m] (None: coal's default, 1e-6)."""
+        distance (boxes) [m] (None: coal's default, 1e-6).
+
+        ``obstacles``: static obstacles (poses in the original frame), fixed in the world at
+        ``origin`` (the original frame's pose in the world at start-up,
+        ``Kinematics(robot).original_frame``; None: the world frame). Each one is paired with
+        every link the joints move (vehicle links included), after the link pairs, named
+        ``(link, "obstacle:<name>")`` in :attr:`pair_links`."""
         self.model = model
         self.geometry = geometry_model(model, source)
+        check_unique(obstacles)
+        moving = [
+            link_of(obj.name) for obj in self.geometry.geometryObjects if obj.parentJoint != 0
+        ]
+        world = pin.SE3.Identity() if origin is None else origin
+        for obstacle in obstacles:
+            self.geometry.addGeometryObject(
+                pin.GeometryObject(
+                    f"{obstacle.label}/0", 0, 0, world * obstacle.placement(), obstacle.geometry()
+                )
+            )
+        link_pairs = list(link_pairs)
+        for obstacle in obstacles:
+            link_pairs += [(link, obstacle.label) for link in dict.fromkeys(moving)]
         by_link: dict[str, list[int]] = {}
         for i, obj in enumerate(self.geometry.geometryObjects):
             by_link.setdefault(link_of(obj.name), []).append(i)
+        #: Unpadded size of each shape (see :meth:`set_padding`), by geometry index.
+        self._sizes = [_size(obj.geometry) for obj in self.geometry.geometryObjects]
+        self._by_link = by_link
+        #: Padding [m] of the links :meth:`set_padding` inflated.
+        self.padding: dict[str, float] = {}
         #: Link names of each checked shape pair, in row order.
         self.pair_links: list[tuple[str, str]] = []
         #: (joint id of shape 1, joint id of shape 2) per pair.
@@ -171,6 +220,26 @@ class CollisionDistances:
             return np.zeros((6, self.model.nv))
         jac = pin.getJointJacobian(self.model, self._data, joint, pin.LOCAL_WORLD_ALIGNED)
         return np.asarray(jac).reshape(6, self.model.nv)  # eigenpy gives (6,) when nv == 1
+
+    # -------------------------------------------------------------------------- padding
+    def set_padding(self, links: Iterable[str], radius: float) -> None:
+        """Inflate every shape of ``links`` by ``radius`` [m] (0: back to the model's shapes):
+        a held object's padding. Capsule and sphere radii grow by ``radius``, box half sides
+        too. Takes effect at the next :meth:`update`; the Jacobian rows are unchanged (an
+        inflated convex shape's witness point moves along the normal). Not for obstacles."""
+        if not math.isfinite(radius) or radius < 0.0:
+            raise ValueError(f"padding must be finite and >= 0 m, got {radius!r}")
+        objs = self.geometry.geometryObjects
+        for link in links:
+            if link not in self._by_link or is_obstacle(link):
+                raise ValueError(f"{link!r} is not a link with collision shapes")
+            for i in self._by_link[link]:
+                geom, size = objs[i].geometry, self._sizes[i]
+                if isinstance(geom, coal.Box):
+                    geom.halfSide = size + radius
+                elif len(size):
+                    geom.radius = float(size[0] + radius)
+            self.padding[link] = float(radius)
 
     def closest(self) -> int:
         """Index of the pair with the smallest distance (-1 when no pair is checked)."""

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from controller.bounds import MAX_MOTION_TIME, motion_time
 from controller.contract.motion_specs import CPHoldSpec, MotionSpec
+from controller.gateway.planning.clearance import ClearanceCheck
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_value
 from controller.qp.ik import WholeBodyIK
@@ -86,15 +88,22 @@ def dry_run(
     q0: np.ndarray,
     max_time: float = MAX_MOTION_TIME,
     commanded: set[RedundantAxis] | None = None,
+    clearance: ClearanceCheck | None = None,
 ) -> str | None:
     """Run ``spec`` from ``q0`` on ``kin`` with ``ik`` (its joint box set by the caller) at
-    :data:`DRY_RUN_DT`: None when it arrives, else why not. Leaves ``kin`` at the end."""
+    :data:`DRY_RUN_DT`: None when it arrives, else why not. Leaves ``kin`` at the end.
+
+    ``clearance``: the distances are checked at every step (the motion is refused when it
+    would bring two bodies closer than the security distance)."""
     motion = time_scaled(kin, spec).build(kin, DRY_RUN_DT)
     setup = motion.setup()
     ik.tasks = setup.tasks
     ik.configure(setup.frozen, setup.allowed, setup.ranges)
     q, v = q0.copy(), np.zeros_like(q0)
     settle = 0
+    if clearance is not None:
+        clearance.start(q0)
+        progress = _progress(kin, spec)
     for _ in range(int((max_time + 1.0) / DRY_RUN_DT)):  # + the settling second
         motion.advance()
         result = ik.solve(q, v)
@@ -103,6 +112,11 @@ def dry_run(
         v = result.velocity
         q = q + v * DRY_RUN_DT
         kin.update(q)
+        if clearance is not None:
+            where = f"at {100 * progress():.0f} % of the way"
+            reason = clearance.problem_at(q, where, "the motion")
+            if reason is not None:
+                return reason
         if motion.finished:
             settle += 1
             if settle * DRY_RUN_DT >= 1.0 or np.abs(v).max() < 1e-6:
@@ -113,6 +127,26 @@ def dry_run(
         if q[i] - ik.box.q_min[i] < LIMIT_TOL or ik.box.q_max[i] - q[i] < LIMIT_TOL
     ]
     return arrival_problem(kin, ik.tasks, commanded, at_limit)
+
+
+def _progress(kin: Kinematics, spec: MotionSpec) -> Callable[[], float]:
+    """How far along its axis targets the motion is, 0..1, from ``kin``'s state (the largest
+    share over the moving axes; 1 for a motion other than CP-hold)."""
+    targets = spec.targets if isinstance(spec, CPHoldSpec) else {}
+    start = {axis: axis_value(kin, axis) for axis in targets}
+
+    def share() -> float:
+        best = 0.0
+        for axis, goal in targets.items():
+            total = goal - start[axis]
+            done = axis_value(kin, axis) - start[axis]
+            if axis.is_elbow:
+                total, done = math.remainder(total, math.tau), math.remainder(done, math.tau)
+            if abs(total) > 1e-9:
+                best = max(best, min(1.0, done / total))
+        return best if targets else 1.0
+
+    return share
 
 
 def time_scaled(kin: Kinematics, spec: MotionSpec) -> MotionSpec:

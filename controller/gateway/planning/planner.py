@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -27,11 +28,13 @@ from controller.contract.motion_specs import (
 )
 from controller.contract.snapshot import F_MOTION, Snapshot
 from controller.errors import Refused
+from controller.gateway.planning.clearance import ClearanceCheck
 from controller.gateway.planning.dry_run import DRY_RUN_DT, dry_run
 from controller.gateway.planning.elbow_reach import ELBOW_TOL, reach_elbow
 from controller.gateway.planning.reach import out_of_reach
 from controller.gateway.planning.robot_view import RobotView
 from controller.model.kinematics import Kinematics
+from controller.model.obstacles import Obstacle
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import other_side
 from controller.motion.reachability import ReachabilityChecker
@@ -42,9 +45,15 @@ Range = tuple[float, float]
 
 
 class Planner:
-    def __init__(self, view: RobotView, dt: float):
+    def __init__(self, view: RobotView, dt: float, obstacles: Sequence[Obstacle] = ()):
+        """``obstacles``: the daemon's static obstacles (:mod:`controller.model.obstacles`),
+        kept clear of like the robot's own bodies (:mod:`.clearance`)."""
         self.view = view
         self.dt = dt
+        self.obstacles = tuple(obstacles)
+        self._clearance: ClearanceCheck | None = None
+        #: Path parameters and configurations of the last :meth:`cartesian` path.
+        self.last_path: tuple[list[float], list[np.ndarray]] = ([], [])
         self.checker = ReachabilityChecker(view.kin)
         self.lock = threading.RLock()
         self.tail: np.ndarray | None = None
@@ -85,6 +94,29 @@ class Planner:
         """Commanded end pose of ``side`` of the queued motions (None: use the kinematics)."""
         return self.tail_poses.get(side)
 
+    @property
+    def clearance(self) -> ClearanceCheck:
+        """The distance check along paths (built on first use: one per planner)."""
+        if self._clearance is None:
+            self._clearance = ClearanceCheck(self.view.kin, self.obstacles)
+        return self._clearance
+
+    def require_clearance(self, s: Sequence[float], qs: Sequence[np.ndarray]) -> None:
+        """Refused(CANNOT_REACH_TARGET_ERR) when the sampled path ``qs`` (at parameters ``s``,
+        from where the move starts) would bring two bodies closer than the security distance;
+        the comment names them."""
+        with self.lock:
+            reason = self.clearance.sampled_path_problem(s, qs)
+        if reason is not None:
+            raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
+
+    def require_joint_line_clearance(self, q0: np.ndarray, q1: np.ndarray) -> None:
+        """:meth:`require_clearance` along the joint-space line ``q0`` → ``q1``."""
+        with self.lock:
+            reason = self.clearance.joint_line_problem(q0, q1)
+        if reason is not None:
+            raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
+
     def set_joint_limits(self, indices: np.ndarray, lower: np.ndarray, upper: np.ndarray):
         self.checker.q_min[indices] = lower
         self.checker.q_max[indices] = upper
@@ -116,8 +148,12 @@ class Planner:
         via: pin.SE3 | None = None,
         duration: float | None = None,
         label: str = "Cartesian move",
+        clearance: bool = True,
     ) -> tuple[CartesianMoveSpec, np.ndarray]:
-        """A checked straight-line (or arc) move; Refused(CANNOT_REACH_TARGET_ERR) if not."""
+        """A checked straight-line (or arc) move; Refused(CANNOT_REACH_TARGET_ERR) if not.
+
+        ``clearance``: check the path's distances (:mod:`.clearance`); a caller moving
+        several arms together checks their combined paths itself (:attr:`last_path`)."""
         spec = CartesianMoveSpec(
             side=side,
             target=target.homogeneous.copy(),
@@ -140,6 +176,9 @@ class Planner:
             hold = other_side(side) if spec.hold_other else None
             elbow_path = getattr(motion, "elbow_path", None)
             reason = self.checker.check(kin, side, motion.path, motion.setup(), hold, elbow_path)  # type: ignore[attr-defined]
+            self.last_path = (list(self.checker.path_s), list(self.checker.path_q))
+            if reason is None and clearance:
+                reason = self.clearance.sampled_path_problem(*self.last_path)
             q_end = self.checker.last_q.copy()
             limits = self.checker.path_parameter_limits()
             if reason is None and elbow is not None:
@@ -194,9 +233,11 @@ class Planner:
         allowed: dict[RedundantAxis, bool],
         ranges: dict[RedundantAxis, Range | None],
         hold_other: bool,
+        clearance: bool = True,
     ) -> tuple[np.ndarray, np.ndarray, tuple[RightLeft, ...]]:
         """IK solution of ``target`` under the mask and ranges: the configuration, the joints
-        a move there uses and the arms it must hold; Refused(CANNOT_REACH_TARGET_ERR) if none."""
+        a move there uses and the arms it must hold; Refused(CANNOT_REACH_TARGET_ERR) if none,
+        or (``clearance``) if the joint-space line there comes too close (:mod:`.clearance`)."""
         probe = CartesianMoveSpec(
             side=side,
             target=target.homogeneous.copy(),
@@ -211,6 +252,8 @@ class Planner:
             setup = probe.build(kin, self.dt).setup()
             hold = other_side(side) if probe.hold_other else None
             q_goal, reason = self.checker.solve_pose(kin, side, target, setup, hold)
+            if reason is None and clearance:
+                reason = self.clearance.joint_line_problem(q0, q_goal)
         if reason is not None:
             raise Refused(ReturnCode.CANNOT_REACH_TARGET_ERR, reason)
         return q_goal, np.flatnonzero(~setup.frozen), (() if hold is None else (hold,))
@@ -229,11 +272,16 @@ class Planner:
         accel_share: float = 0.5,
         label: str = "PTP Cartesian move",
     ) -> tuple[JointMoveSpec, np.ndarray]:
-        """Joint-space move to the IK solution of ``target`` under the mask and ranges."""
-        q_goal, joints, hold = self.pose_goal(snap, q0, side, target, allowed, ranges, hold_other)
+        """Joint-space move to the IK solution of ``target`` under the mask and ranges.
+
+        The arguments (the duration) are checked before the path's clearance."""
+        q_goal, joints, hold = self.pose_goal(
+            snap, q0, side, target, allowed, ranges, hold_other, clearance=False
+        )
         spec = self.joint(
             q0, joints, q_goal[joints], speed_share, accel_share, duration, hold=hold, label=label
         )
+        self.require_joint_line_clearance(q0, q_goal)
         return spec, q_goal
 
     def joint(
@@ -309,7 +357,7 @@ class Planner:
                 self._dry_ik = WholeBodyIK(kin, DRY_RUN_DT)
             ik = self._dry_ik
             ik.box.q_min, ik.box.q_max = self.checker.q_min.copy(), self.checker.q_max.copy()
-            return dry_run(kin, ik, spec, q0, max_time, commanded)
+            return dry_run(kin, ik, spec, q0, max_time, commanded, self.clearance)
 
     def cp_hold(
         self,

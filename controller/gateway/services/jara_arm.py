@@ -21,6 +21,7 @@ from controller.contract.motion_specs import DualCartesianSpec, JointStreamSpec,
 from controller.contract.snapshot import Snapshot
 from controller.conversions import deg_to_rad, finite_array, hg_to_se3
 from controller.errors import ArgumentError, Refused
+from controller.gateway.planning.clearance import combine
 from controller.gateway.planning.jara_arm import (
     ArmSettings,
     CarPos,
@@ -261,9 +262,11 @@ class JaraArmService:
         target: CarPos,
         relative: bool,
         name: str,
+        clearance: bool = True,
     ) -> tuple[np.ndarray, pin.SE3]:
         """IK solution (kinematic configuration) of a JARA Cartesian target, and the target
-        pose (original frame)."""
+        pose (original frame). ``clearance``: check the joint-space line there (a dual move
+        checks both arms' lines together instead)."""
         settings = self.arms[side]
         planner = self.ctx.planner
         with planner.view.at(snap, q0) as kin:
@@ -272,7 +275,9 @@ class JaraArmService:
             {elbow_axis(side): True} if planner.view.kin.has_elbow(side) else {}
         )
         with unreachable_is_value_err():
-            q_goal, _, _ = planner.pose_goal(snap, q0, side, goal, allowed, {}, False)
+            q_goal, _, _ = planner.pose_goal(
+                snap, q0, side, goal, allowed, {}, False, clearance=clearance
+            )
         return q_goal, goal
 
     # ------------------------------------------------------------------ both arms
@@ -285,6 +290,7 @@ class JaraArmService:
         q_end = q0.copy()
         speeds, accels = [], []
         path_limits: list[tuple[float, float]] = []
+        paths = []
         with planner.lock:
             for side, target in targets.items():
                 settings = self.arms[side]
@@ -298,14 +304,27 @@ class JaraArmService:
                 allowed = {elbow_axis(side): True} if elbow is not None else {}
                 with unreachable_is_value_err():
                     arm_spec, q_side = planner.cartesian(
-                        snap, q0, side, goal, speed, accel, allowed, {}, False, elbow=elbow
+                        snap,
+                        q0,
+                        side,
+                        goal,
+                        speed,
+                        accel,
+                        allowed,
+                        {},
+                        False,
+                        elbow=elbow,
+                        clearance=False,
                     )
                 if arm_spec.path_limits is not None:
                     path_limits.append(arm_spec.path_limits)
                 joints = self.joints(side)
+                paths.append((joints, *planner.last_path))
                 q_end[joints] = q_side[joints]
                 goals[side] = goal.homogeneous.copy()
                 elbows[side] = elbow
+            with unreachable_is_value_err():  # both arms along their paths, together
+                planner.require_clearance(*combine(q0, paths))
             spec = DualCartesianSpec(
                 targets=goals,
                 speed=(min(s[0] for s in speeds), min(s[1] for s in speeds)),
@@ -327,9 +346,14 @@ class JaraArmService:
         snap, q0 = self._start_state()
         with self.ctx.planner.lock:
             goals = {
-                side: self.ptp_goal(snap, q0, side, target, relative, name)[0]
+                side: self.ptp_goal(snap, q0, side, target, relative, name, clearance=False)[0]
                 for (side, target), name in zip(targets.items(), ("rArm", "lArm"), strict=True)
             }
+            q_end = q0.copy()
+            for side, q_side in goals.items():
+                q_end[self.joints(side)] = q_side[self.joints(side)]
+            with unreachable_is_value_err():  # both arms' joint lines at once
+                self.ctx.planner.require_joint_line_clearance(q0, q_end)
             return self._dual_ptp(goals, q0)
 
     def dual_ptp_joint(self, values_deg: dict[RightLeft, np.ndarray], relative: bool) -> str | None:
