@@ -188,6 +188,21 @@ def test_tokens_end_to_end(guarded: TestDaemon):
     assert err.value.code() == grpc.StatusCode.UNAUTHENTICATED
 
 
+def test_undecodable_bytes_without_a_token_learn_nothing(guarded: TestDaemon):
+    """The token comes first: bad bytes without a token are UNAUTHENTICATED, not
+    INVALID_ARGUMENT; with the motion token they are INVALID_ARGUMENT."""
+    bad = b"\x0a\xff"  # never decodes
+    for method, other, other_code in (
+        ("ServoOn", READ, grpc.StatusCode.PERMISSION_DENIED),
+        ("GetState", READ, grpc.StatusCode.INVALID_ARGUMENT),
+    ):
+        raw = guarded.channel.unary_unary(f"/imotion.v1.IntegratedMotion/{method}")
+        assert _rpc_code(raw, bad, None) == grpc.StatusCode.UNAUTHENTICATED
+        assert _rpc_code(raw, bad, "wrong") == grpc.StatusCode.PERMISSION_DENIED
+        assert _rpc_code(raw, bad, other) == other_code
+        assert _rpc_code(raw, bad, MOTION) == grpc.StatusCode.INVALID_ARGUMENT
+
+
 # ----------------------------------------------------------------------------- TLS
 def _self_signed(directory: Path) -> tuple[Path, Path]:
     """A certificate for 127.0.0.1 / localhost made with the openssl CLI."""

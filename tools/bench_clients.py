@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
-"""Client-load benchmark: does gRPC traffic disturb imotiond's control loop?
+"""Client-load benchmark: does gRPC traffic disturb imotiond's control loop, and how fast
+does the gateway answer reads under it?
 
 Usage: python tools/bench_clients.py [--seconds 10] [--clients 32] [--procs 4] [--rate 1000]
-                                     [--set KEY=VALUE ...]
+                                     [--poll-hz 20] [--set KEY=VALUE ...] [--root DIR]
                                      [--modes process,thread]
 
 For each gateway mode (``process``: gRPC in its own process, the shipped design; ``thread``:
@@ -11,19 +12,32 @@ gRPC inside the control process, the peer) it starts ``imotiond --hal sim`` at `
 linear hand move running (100 mm up and down, one after the other). Then:
 
 1. *idle*: ``--seconds`` with only the move running;
-2. *loaded*: ``--seconds`` with ``--clients`` concurrent clients (``--procs`` processes of
-   threads, one channel each, so the client side is not GIL-bound) calling getState and
-   getFeedbackPosCartesian alternately as fast as they can.
+2. *loaded* (saturated): ``--seconds`` with ``--clients`` concurrent clients (``--procs``
+   processes of threads, one channel each, so the client side is not GIL-bound) calling
+   getState and getFeedbackPosCartesian alternately as fast as they can. Closed loop: each
+   client waits for its answer, so a round trip is (clients / calls per second) whatever the
+   server does: this phase measures throughput, and the loop's wake latency under it;
+3. *paced*: ``--seconds`` with the same clients each calling ``--poll-hz`` times a second
+   (a dashboard polling; random phases), a round trip counted from its scheduled start.
+   This is the getState latency target (p99 <= 5 ms, issue 17.12): the server's answer time
+   at a given load, not the clients' own queueing.
+
+The clients run on the same cores as the daemon: for each loaded phase it prints the CPU time
+per call of the gateway process (from /proc) and of the clients (their own process time), so
+one sees who the cores were busy with; and the 1-minute load average (other work on the
+machine shows there). ``--root DIR`` runs imotiond from another checkout with these same
+clients (before/after comparisons).
 
 The loop's wake latency (wake time minus deadline) and compute time of every cycle come from
 the daemon's ``loop.stats_file`` (written at SIGTERM); each phase's cycles are found from the
 cycle counter of Monitor.StreamState at its start and end. Prints per mode and phase the wake
 latency p50/p99/max, cycles late by more than half a period, compute p99 and the client call
-rate, the getState round trip p50/p99 under load (target p99 <= 5 ms), the p99 rise under
-load against the target (<= 30 us, no late cycle), and as the last
-line a JSON object. For reference it first measures the machine's floor: a bare SCHED_FIFO
-thread that only sleeps to 1 ms deadlines (on shared virtual cores even that is late now
-and then).
+rate, the getState round trip p50/p99 of both client phases against the target, the p99
+rise under load against its target (<= 30 us, no late cycle), and as the last line a JSON
+object (``<mode>.saturated`` and ``<mode>.paced``: getstate_p50_ms, getstate_p99_ms,
+calls_per_s, gateway_cpu_us_per_call, client_cpu_us_per_call; ``max_getstate_p99_ms``). For
+reference it first measures the machine's floor: a bare SCHED_FIFO thread that only sleeps
+to 1 ms deadlines (on shared virtual cores even that is late now and then).
 """
 
 from __future__ import annotations
@@ -55,19 +69,27 @@ MAX_P99_RISE_US = 30.0
 #: Acceptance: getState round trip p99 with the clients hammering [ms] (issue 17.12).
 MAX_GETSTATE_P99_MS = 5.0
 START_TIMEOUT = 90.0
+#: Each client's call rate in the paced phase [Hz].
+POLL_HZ = 20.0
 
 
 # ---------------------------------------------------------------------- client processes
-def client_main(address: str, threads: int, seconds: float) -> int:
+def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
     """One client process: ``threads`` threads, connected, then "READY" on stdout; hammering
     starts at the monotonic time (shared by all processes on Linux) read from stdin and lasts
-    ``seconds``. Prints {"calls", "errors", "getstate_us"} (every getState round trip [us])."""
+    ``seconds``. ``hz`` 0: each thread calls as fast as it can (closed loop); else each thread
+    calls ``hz`` times a second on a fixed schedule (a random phase each), and a round trip
+    counts from its scheduled time (a late start is the server's delay too). Prints
+    {"calls", "errors", "cpu_s", "getstate_us"} (cpu_s: this process's CPU time while
+    hammering; getstate_us: every getState round trip [us])."""
     counts = [0] * threads
     errors = [0] * threads
     latencies: list[list[float]] = [[] for _ in range(threads)]
     connected = threading.Barrier(threads + 1)
     go = threading.Event()
     start_at = [0.0]
+    rng = np.random.default_rng()
+    phases = rng.uniform(0.0, 1.0 / hz, threads) if hz > 0 else np.zeros(threads)
 
     def worker(k: int) -> None:
         channel = grpc.insecure_channel(address)
@@ -80,12 +102,18 @@ def client_main(address: str, threads: int, seconds: float) -> int:
             time.sleep(0.001)
         end = start_at[0] + seconds
         n = 0
-        while time.monotonic() < end:
+        while True:
+            due = start_at[0] + float(phases[k]) + n / hz if hz > 0 else time.monotonic()
+            if due >= end:
+                break
+            wait = due - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
             try:
                 if n & 1:
                     stub.GetFeedbackPosCartesian(pose, timeout=5.0)
                 else:
-                    t0 = time.perf_counter()
+                    t0 = time.perf_counter() - max(0.0, time.monotonic() - due)
                     stub.GetState(state, timeout=5.0)
                     latencies[k].append((time.perf_counter() - t0) * 1e6)
                 counts[k] += 1
@@ -101,10 +129,15 @@ def client_main(address: str, threads: int, seconds: float) -> int:
     print("READY", flush=True)
     start_at[0] = float(sys.stdin.readline())
     go.set()
+    while time.monotonic() < start_at[0]:
+        time.sleep(0.001)
+    cpu0 = time.process_time()
     for t in pool:
         t.join()
+    cpu_s = time.process_time() - cpu0
     samples = [round(x, 1) for per_thread in latencies for x in per_thread]
-    print(json.dumps({"calls": sum(counts), "errors": sum(errors), "getstate_us": samples}))
+    out = {"calls": sum(counts), "errors": sum(errors), "cpu_s": cpu_s, "getstate_us": samples}
+    print(json.dumps(out))
     return 0
 
 
@@ -153,7 +186,9 @@ class Daemon:
         log: Path,
         switch_interval: float | None,
         sets: list[str] | None = None,
+        root: Path = ROOT,
     ):
+        self.mode = mode
         self.address = ""  # read from the daemon's "ready" line (it binds port 0)
         self.stats = stats
         cmd = [sys.executable, "-m", "controller.daemon.main", "--robot", "smartpal5"]
@@ -167,10 +202,10 @@ class Daemon:
         cmd += ["--set", f"gateway={mode}", "--set", f"loop.stats_file={stats}"]
         for item in sets or []:
             cmd += ["--set", item]
-        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        env = dict(os.environ, PYTHONPATH=str(root))
         self._log = open(log, "w")  # closed in stop()
         self.log_path = log
-        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=self._log, stderr=self._log)
+        self.proc = subprocess.Popen(cmd, cwd=root, env=env, stdout=self._log, stderr=self._log)
 
     def wait_ready(self) -> None:
         end = time.monotonic() + START_TIMEOUT
@@ -189,6 +224,19 @@ class Daemon:
                     return
             time.sleep(0.2)
         raise RuntimeError(f"imotiond did not get ready within {START_TIMEOUT:g} s")
+
+    def gateway_pid(self) -> int | None:
+        """The process serving gRPC: imotiond's child (gateway=process) or imotiond."""
+        if self.mode != "process":
+            return self.proc.pid
+        for task in Path(f"/proc/{self.proc.pid}/task").glob("*"):
+            try:
+                children = (task / "children").read_text().split()
+            except OSError:
+                continue
+            if children:
+                return int(children[0])
+        return None
 
     def cycles(self) -> int:
         """The loop's cycle counter now (one StreamState sample)."""
@@ -249,8 +297,9 @@ class Mover:
                 self.moves += 1
                 sign = -sign
                 time.sleep(0.1)  # the snapshot shows the move a cycle after the OK
-            else:
+            else:  # e.g. a joint too near its limit for that line: the other way then
                 self.refused.append(f"{rid.id}: {rid.comment}")
+                sign = -sign
                 time.sleep(0.1)
 
     def stop(self) -> None:
@@ -275,10 +324,82 @@ def phase_stats(wake: np.ndarray, compute: np.ndarray, period_us: float) -> dict
     }
 
 
+def cpu_seconds(pid: int | None) -> float:
+    """CPU time [s] a process has used so far (0 when unknown)."""
+    if pid is None:
+        return 0.0
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def run_clients(daemon: Daemon, args: argparse.Namespace, hz: float) -> dict[str, Any]:
+    """``--clients`` clients (``--procs`` processes) for ``--seconds``: as fast as they can
+    (``hz`` 0) or each ``hz`` calls a second. getState round trips, call rate, and the CPU
+    time per call of the gateway process and of the clients [us]."""
+    threads = -(-args.clients // args.procs)
+    client_cmd = [sys.executable, __file__, "--client", daemon.address, "--hz", f"{hz:g}"]
+    client_cmd += ["--threads", str(threads), "--seconds", str(args.seconds)]
+    clients = [
+        subprocess.Popen(
+            client_cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=ROOT
+        )
+        for _ in range(args.procs)
+    ]
+    for proc in clients:  # every client connected (imports take seconds on a busy host)
+        assert proc.stdout is not None
+        if proc.stdout.readline().strip() != "READY":
+            raise RuntimeError("a client process did not connect")
+    start_at = time.monotonic() + 0.5
+    for proc in clients:
+        assert proc.stdin is not None
+        proc.stdin.write(f"{start_at!r}\n")
+        proc.stdin.flush()
+    time.sleep(max(0.0, start_at - time.monotonic()))
+    gateway_cpu = cpu_seconds(daemon.gateway_pid())
+    c2 = daemon.cycles()
+    time.sleep(max(0.0, start_at + args.seconds - time.monotonic()))
+    c3 = daemon.cycles()
+    gateway_cpu = cpu_seconds(daemon.gateway_pid()) - gateway_cpu
+    calls = errors = 0
+    client_cpu = 0.0
+    getstate: list[float] = []
+    for proc in clients:
+        stdout, _ = proc.communicate(timeout=120.0)
+        line = stdout.strip().splitlines()[-1] if stdout.strip() else "{}"
+        data = json.loads(line)
+        calls += int(data.get("calls", 0))
+        errors += int(data.get("errors", 0))
+        client_cpu += float(data.get("cpu_s", 0.0))
+        getstate += data.get("getstate_us", [])
+    out: dict[str, Any] = {"poll_hz": hz}
+    if getstate:
+        p50, p99 = np.percentile(getstate, [50.0, 99.0])
+        out["getstate_p50_ms"] = round(float(p50) / 1e3, 2)
+        out["getstate_p99_ms"] = round(float(p99) / 1e3, 2)
+    out["calls_per_s"] = round(calls / args.seconds, 1)
+    out["errors"] = errors
+    if calls:
+        out["gateway_cpu_us_per_call"] = round(gateway_cpu / calls * 1e6, 1)
+        out["client_cpu_us_per_call"] = round(client_cpu / calls * 1e6, 1)
+    out["load"] = round(os.getloadavg()[0], 2)
+    out["cycles"] = (c2, c3)
+    out["clients"] = threads * args.procs
+    return out
+
+
 def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
     stats_path = work / f"{mode}.npz"
     daemon = Daemon(
-        mode, args.rate, stats_path, work / f"{mode}.log", args.switch_interval, args.set
+        mode,
+        args.rate,
+        stats_path,
+        work / f"{mode}.log",
+        args.switch_interval,
+        args.set,
+        args.root.resolve(),
     )
     mover: Mover | None = None
     result: dict[str, Any] = {"mode": mode}
@@ -293,45 +414,15 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         c0 = daemon.cycles()
         time.sleep(args.seconds)
         c1 = daemon.cycles()
-        threads = -(-args.clients // args.procs)
-        client_cmd = [sys.executable, __file__, "--client", daemon.address]
-        client_cmd += ["--threads", str(threads), "--seconds", str(args.seconds)]
-        clients = [
-            subprocess.Popen(
-                client_cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=ROOT
-            )
-            for _ in range(args.procs)
-        ]
-        for proc in clients:  # every client connected (imports take seconds on a busy host)
-            assert proc.stdout is not None
-            if proc.stdout.readline().strip() != "READY":
-                raise RuntimeError("a client process did not connect")
-        start_at = time.monotonic() + 0.5
-        for proc in clients:
-            assert proc.stdin is not None
-            proc.stdin.write(f"{start_at!r}\n")
-            proc.stdin.flush()
-        time.sleep(max(0.0, start_at - time.monotonic()))
-        c2 = daemon.cycles()
-        time.sleep(max(0.0, start_at + args.seconds - time.monotonic()))
-        c3 = daemon.cycles()
-        calls = errors = 0
-        getstate: list[float] = []
-        for proc in clients:
-            out, _ = proc.communicate(timeout=120.0)
-            line = out.strip().splitlines()[-1] if out.strip() else "{}"
-            data = json.loads(line)
-            calls += int(data.get("calls", 0))
-            errors += int(data.get("errors", 0))
-            getstate += data.get("getstate_us", [])
-        if getstate:
-            p50, p99 = np.percentile(getstate, [50.0, 99.0])
-            result["getstate_p50_ms"] = round(float(p50) / 1e3, 2)
-            result["getstate_p99_ms"] = round(float(p99) / 1e3, 2)
-        result["client_calls_per_s"] = round(calls / args.seconds, 1)
-        result["client_errors"] = errors
-        result["clients"] = threads * args.procs
+        loaded = run_clients(daemon, args, 0.0)
+        c2, c3 = loaded.pop("cycles")
+        result["clients"] = loaded.pop("clients")
+        result["saturated"] = loaded
         result["phase_cycles"] = [c0, c1, c2, c3]
+        if args.poll_hz > 0:
+            paced = run_clients(daemon, args, args.poll_hz)
+            del paced["cycles"], paced["clients"]
+            result["paced"] = paced
     finally:
         if mover is not None:
             mover.stop()
@@ -375,7 +466,8 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
     for r in results:
         for phase in ("idle", "loaded"):
             s = r[phase]
-            calls = f"{r.get('client_calls_per_s', 0):9.0f}" if phase == "loaded" else f"{0:9d}"
+            rate = r.get("saturated", {}).get("calls_per_s", 0)
+            calls = f"{rate:9.0f}" if phase == "loaded" else f"{0:9d}"
             print(
                 f"{r['mode']:8s} {phase:7s} {s['cycles']:7d} {s['wake_p50_us']:9.1f} "
                 f"{s['wake_p99_us']:7.1f} {s['wake_max_us']:8.1f} {s['late']:9d} "
@@ -384,11 +476,18 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
     print()
     for r in results:
         verdict = "PASS" if r["pass"] else "FAIL"
-        if "getstate_p99_ms" in r:
-            ok = "PASS" if r["getstate_p99_ms"] <= MAX_GETSTATE_P99_MS else "FAIL"
+        for name, what in (("saturated", "as fast as they can"), ("paced", "polling")):
+            g = r.get(name)
+            if g is None or "getstate_p99_ms" not in g:
+                continue
+            ok = "PASS" if g["getstate_p99_ms"] <= MAX_GETSTATE_P99_MS else "FAIL"
+            how = f"{what} at {g['poll_hz']:g} Hz each" if g["poll_hz"] else what
             print(
-                f"{r['mode']:8s} getState under load: p50 {r['getstate_p50_ms']:.2f} ms, "
-                f"p99 {r['getstate_p99_ms']:.2f} ms (limit {MAX_GETSTATE_P99_MS:g} ms): {ok}"
+                f"{r['mode']:8s} getState, {r['clients']} clients {how}: "
+                f"p50 {g['getstate_p50_ms']:.2f} ms, p99 {g['getstate_p99_ms']:.2f} ms "
+                f"(target {MAX_GETSTATE_P99_MS:g} ms): {ok}; {g['calls_per_s']:.0f} calls/s, "
+                f"CPU per call: gateway {g.get('gateway_cpu_us_per_call', 0):.0f} us, "
+                f"clients {g.get('client_cpu_us_per_call', 0):.0f} us; load {g['load']:.2f}"
             )
         print(
             f"{r['mode']:8s} p99 rise under load {r['p99_rise_us']:+.1f} us (limit "
@@ -423,9 +522,22 @@ def main() -> int:
     parser.add_argument("--client", metavar="ADDRESS", help=argparse.SUPPRESS)
     parser.add_argument("--bare", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--threads", type=int, default=8, help=argparse.SUPPRESS)
+    parser.add_argument("--hz", type=float, default=0.0, help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--poll-hz",
+        type=float,
+        default=POLL_HZ,
+        help="each client's call rate in the paced phase [Hz] (0: no paced phase)",
+    )
+    parser.add_argument(
+        "--root",
+        type=Path,
+        default=ROOT,
+        help="run imotiond from this checkout (e.g. another branch, to compare)",
+    )
     args = parser.parse_args()
     if args.client:
-        return client_main(args.client, args.threads, args.seconds)
+        return client_main(args.client, args.threads, args.seconds, args.hz)
     if args.bare:
         return bare_main(args.rate, args.seconds)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
@@ -456,6 +568,8 @@ def main() -> int:
         "clients": args.clients,
         "procs": args.procs,
         "max_p99_rise_us": MAX_P99_RISE_US,
+        "poll_hz": args.poll_hz,
+        "max_getstate_p99_ms": MAX_GETSTATE_P99_MS,
         "switch_interval_s": args.switch_interval,
         "bare_loop": bare,
         **{r["mode"]: {k: v for k, v in r.items() if k != "mode"} for r in results},
