@@ -1,0 +1,174 @@
+"""Collision avoidance: velocity-damper rows on the distances of the checked pairs.
+
+For every row of a :class:`~controller.model.collision.CollisionDistances` (self-collision
+pairs, and whatever else it holds: static obstacles, held objects) closer than the influence
+distance ``d_i``, one row on the distance rate ``d' = J_d v`` [m/s]::
+
+    d' ≥ −s_k          s_k ≥ 0: the approach speed allowed to pair k this cycle [m/s]
+
+with, ``g = d − d_s`` the gap to the security distance and ``a_k`` the deceleration of the
+pair the joints can give (half of what the acceleration limits allow along ``J_d``,
+``a_k = BRAKING_SHARE·Σ_j |J_d,j|·a_max,j``: the other half is the tasks' headroom, as for
+the joints' braking distances):
+
+* **damper**: ``s_k = ξ_k·max(g, 0)/(d_i − d_s)``, with ``ξ_k = min(ξ, √(a_k·(d_i − d_s)))``:
+  the damper's own profile (an exponential approach, deceleration ``ξ_k²·g/(d_i − d_s)²``)
+  never asks more than ``a_k``;
+* **activation** (mc_rtc's rule, in speeds): a pair that comes into range approaching faster
+  than its damper allows is allowed its current approach speed ``-J_d·v_prev``: the row holds
+  for the velocity the robot has, never infeasible on entry;
+* **relaxation back**: afterwards the allowance may only shrink by ``a_k·dt`` per cycle (or to
+  the current approach speed, if slower), down to the damper's value: the rows never ask for
+  more deceleration than ``a_k``;
+* **below d_s**: the damper's value is 0, "no further closer" (after braking as above); the
+  rows never push a pair apart (``lo ≤ 0``), so an overlap is never resolved violently;
+* with the cycle's joint box, a row never asks for a rate the box cannot give (the most the
+  box allows, shrunk by a margin, instead).
+
+Both levels; relaxation "no further" (``lo ≤ 0`` always holds: the rows are never dropped).
+More pairs in range than ``max_rows``: the closest ones.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from controller.model.collision import CollisionDistances
+from controller.model.collision_pairs import collision_path, load_collision_pairs
+from controller.model.kinematics import Kinematics
+from controller.model.profile import CollisionAvoidance as Settings
+from controller.qp.constraints.braking import BRAKING_SHARE
+from controller.qp.constraints.protocol import (
+    INF,
+    ConstraintSetup,
+    CycleState,
+    Level,
+    Relaxation,
+    RowBlock,
+)
+
+#: Share of the box's reachable interval of ``J_d v`` kept free at its end (as the axis rows).
+REACH_MARGIN = 0.01
+#: Rows whose distance Jacobian is shorter than this [m/rad] are left free (the pair's
+#: distance does not depend on the joints there: nothing to constrain).
+MIN_ROW_NORM = 1e-6
+#: A row binds when ``J_d v`` is within this [m/s] of its bound.
+BINDING_TOL = 1e-5
+
+
+class CollisionAvoidance:
+    """Velocity-damper rows of the pairs of ``distances`` within the influence distance.
+
+    ``distances`` must be updated once per cycle at the measured state, after the kinematics
+    (the motion core does it), before the IK step. ``settings``: the profile's values.
+    """
+
+    name = "collision avoidance"
+    levels = Level.BOTH
+    relaxation = Relaxation.NO_FURTHER
+    joints = None
+    holds_at_rest = True
+
+    def __init__(
+        self, kin: Kinematics, distances: CollisionDistances, settings: Settings, dt: float
+    ):
+        self.distances = distances
+        self.dt = dt
+        self.influence = settings.influence
+        self.security = settings.security
+        self.damping = settings.damping
+        self.max_rows = min(settings.max_rows, len(distances))
+        self._a_max_all = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
+        self._a_max = self._a_max_all.copy()
+        #: Approach speed allowed per pair at the last cycle [m/s] (NaN: out of range).
+        self.allowed = np.full(len(distances), np.nan)
+        #: The pairs of this cycle's rows, in row order, and their lower bounds [m/s].
+        self.pairs = np.zeros(0, dtype=int)
+        self._rows_lo = np.zeros(self.max_rows)
+        self._rows: RowBlock | None = None
+
+    def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
+        """Frozen joints give no deceleration."""
+        self._a_max = np.where(setup.frozen, 0.0, self._a_max_all)
+
+    def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
+        self._rows = rows
+        dist = self.distances
+        d = dist.distances
+        near = np.flatnonzero(d < self.influence)
+        if len(near) > self.max_rows:
+            near = near[np.argpartition(d[near], self.max_rows - 1)[: self.max_rows]]
+        k = len(near)
+        if not k:
+            self.allowed[self.pairs] = np.nan
+            self.pairs = near
+            return 0
+        C, lo, hi = rows.C[:k], rows.lo[:k], rows.hi[:k]
+        dist.jacobian_into(near, C)
+        span = self.influence - self.security
+        reach = np.abs(C).dot(self._a_max)  # most deceleration of each pair [m/s²]
+        a = BRAKING_SHARE * reach
+        xi = np.minimum(self.damping, np.sqrt(a * span))
+        gap = np.maximum(d[near] - self.security, 0.0)
+        damper = xi * gap / span
+        approach = -C.dot(cycle.v_prev)  # current approach speed [m/s]
+        prev = self.allowed[near]  # NaN: the pair has just come into range
+        fresh = np.isnan(prev)
+        speed = np.where(fresh, approach, np.minimum(prev, approach))
+        # Slow down at a, or faster (up to all the joints can) when a cannot stop the pair
+        # by d_s any more: at the deceleration that stops it there, s²/(2g).
+        with np.errstate(divide="ignore", invalid="ignore"):
+            need = np.where(gap > 0.0, speed * speed / (2.0 * gap), INF)
+        rate = np.minimum(np.maximum(need, a), reach)
+        rate[fresh] = 0.0  # on entry: the current approach speed (satisfied as it is)
+        allowed = np.minimum(np.where(fresh, approach, prev - rate * self.dt), approach)
+        np.maximum(allowed, damper, out=allowed)
+        np.maximum(allowed, 0.0, out=allowed)
+        self.allowed[self.pairs] = np.nan  # pairs that left the range start afresh
+        self.pairs = near
+        self.allowed[near] = allowed
+        np.negative(allowed, out=lo)
+        if cycle.lb is not None and cycle.ub is not None:
+            # The most J_d v the box allows, shrunk: the row asks for at most that.
+            pos = np.maximum(C, 0.0)
+            neg = C - pos
+            high = pos.dot(cycle.ub) + neg.dot(cycle.lb)
+            low = pos.dot(cycle.lb) + neg.dot(cycle.ub)
+            np.minimum(lo, high - REACH_MARGIN * (high - low), out=lo)
+        hi[...] = INF
+        # Unit rows (the solver's tolerances are absolute): J_d v / |J_d| ≥ lo / |J_d|. A
+        # pair whose distance hardly depends on the joints (|J_d| ~ 0) gets a free row.
+        norm = np.sqrt(np.einsum("ij,ij->i", C, C))
+        weak = norm < MIN_ROW_NORM
+        norm[weak] = 1.0
+        C /= norm[:, None]
+        lo /= norm
+        lo[weak] = -INF
+        self._rows_lo[:k] = lo  # before the IK shifts them (frozen joints' share)
+        return k
+
+    def binding(self, v: np.ndarray) -> int:
+        """The pair (index into ``distances``) whose row ``v`` [rad/s, m/s] meets at its
+        bound, the closest such pair; -1 when none binds."""
+        k = len(self.pairs)
+        if not k or self._rows is None:
+            return -1
+        slack = self._rows.C[:k].dot(v) - self._rows_lo[:k]
+        tight = np.flatnonzero(slack < BINDING_TOL)
+        if not len(tight):
+            return -1
+        pairs = self.pairs[tight]
+        return int(pairs[np.argmin(self.distances.distances[pairs])])
+
+
+def collision_avoidance(kin: Kinematics, dt: float) -> CollisionAvoidance | None:
+    """The robot's constraint on its checked pairs (``collision.yaml``) with its profile's
+    settings; None when the profile disables it or the robot has no checked pair."""
+    settings = kin.robot.profile.collision_avoidance
+    if not settings.enabled:
+        return None
+    pairs = load_collision_pairs(collision_path(kin.robot)).checked
+    distances = CollisionDistances(kin.model, kin.robot.model, pairs)
+    if not len(distances):
+        return None
+    return CollisionAvoidance(kin, distances, settings, dt)
