@@ -85,7 +85,14 @@ class CollisionAvoidance:
         #: The pairs of this cycle's rows, in row order, and their lower bounds [m/s].
         self.pairs = np.zeros(0, dtype=int)
         self._rows_lo = np.zeros(self.max_rows)
+        #: The least ``J_d v / |J_d|`` the cycle's box allows, per row.
+        self._low = np.zeros(self.max_rows)
         self._rows: RowBlock | None = None
+
+    @property
+    def span(self) -> float:
+        """``d_i − d_s`` [m]: the damper's range."""
+        return self.influence - self.security
 
     def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
         """Frozen joints give no deceleration."""
@@ -105,7 +112,7 @@ class CollisionAvoidance:
             return 0
         C, lo, hi = rows.C[:k], rows.lo[:k], rows.hi[:k]
         dist.jacobian_into(near, C)
-        span = self.influence - self.security
+        span = self.span
         reach = np.abs(C).dot(self._a_max)  # most deceleration of each pair [m/s²]
         a = BRAKING_SHARE * reach
         xi = np.minimum(self.damping, np.sqrt(a * span))
@@ -135,6 +142,9 @@ class CollisionAvoidance:
             high = pos.dot(cycle.ub) + neg.dot(cycle.lb)
             low = pos.dot(cycle.lb) + neg.dot(cycle.ub)
             np.minimum(lo, high - REACH_MARGIN * (high - low), out=lo)
+            self._low[:k] = low
+        else:
+            self._low[:k] = -INF
         hi[...] = INF
         # Unit rows (the solver's tolerances are absolute): J_d v / |J_d| ≥ lo / |J_d|. A
         # pair whose distance hardly depends on the joints (|J_d| ~ 0) gets a free row.
@@ -144,17 +154,23 @@ class CollisionAvoidance:
         C /= norm[:, None]
         lo /= norm
         lo[weak] = -INF
+        self._low[:k] /= norm
         self._rows_lo[:k] = lo  # before the IK shifts them (frozen joints' share)
         return k
 
-    def binding(self, v: np.ndarray) -> int:
+    def binding(self, v: np.ndarray, within: float = INF) -> int:
         """The pair (index into ``distances``) whose row ``v`` [rad/s, m/s] meets at its
-        bound, the closest such pair; -1 when none binds."""
+        bound, among those closer than ``within`` [m], the closest such pair; -1 when none.
+        A row that allows all the joint box allows (the joints it involves are frozen or
+        braking anyway) holds nothing back: it never binds."""
         k = len(self.pairs)
         if not k or self._rows is None:
             return -1
-        slack = self._rows.C[:k].dot(v) - self._rows_lo[:k]
-        tight = np.flatnonzero(slack < BINDING_TOL)
+        lo = self._rows_lo[:k]
+        slack = self._rows.C[:k].dot(v) - lo
+        close = self.distances.distances[self.pairs] < within
+        restricts = lo > self._low[:k] + BINDING_TOL
+        tight = np.flatnonzero((slack < BINDING_TOL) & restricts & close)
         if not len(tight):
             return -1
         pairs = self.pairs[tight]
