@@ -145,8 +145,11 @@ class CollisionDistances:
                     joints.append((objs[i].parentJoint, objs[k].parentJoint))
         self._joint_array = np.array(joints, dtype=int).reshape(-1, 2)
         #: Per pair and side, 1.0 on the velocity columns of the joints that move the shape.
-        self._support1 = self._support_masks(self._joint_array[:, 0])
-        self._support2 = self._support_masks(self._joint_array[:, 1])
+        support = self._support_masks(self._joint_array[:, 0])
+        support -= self._support_masks(self._joint_array[:, 1])
+        #: Per pair, +1 on the velocity columns moving shape 1 only, -1 on those moving
+        #: shape 2 only, 0 elsewhere (common ancestors move both alike).
+        self._support = support
         self.geometry_data = pin.GeometryData(self.geometry)
         for req in self.geometry_data.distanceRequests:
             req.enable_signed_distance = True
@@ -217,36 +220,32 @@ class CollisionDistances:
         With ``(v_O, w)`` the spatial velocity at the world origin of the whole chain (the
         world Jacobian ``data.J`` that ``computeJointJacobians`` leaves), a point ``p`` of a
         link moves at ``v_O + w x p`` through the columns of the link's supporting joints,
-        so ``n . p' = n . v_O + (p x n) . w`` over those columns: per row, one 3-vector
-        product with ``J`` per side, masked with the side's support.
+        so ``n . p' = n . v_O + (p x n) . w`` over those columns. coal's witness points
+        satisfy ``p1 - p2 = d n`` (to rounding), so ``p2 x n = p1 x n``: one row
+        ``(n . v_O + (p1 x n) . w)`` masked with (support of shape 1) − (support of shape 2),
+        common joints cancelling. Per row two reads from coal, then a few array operations.
         """
         k = len(index)
         if not k:
             return
         results = self._results
-        got: list[
-            np.ndarray
-        ] = []  # normal, p1, p2 of each row (one array at the end: cheaper than k writes)
+        got: list[np.ndarray] = []  # normal, p1 of each row (one array at the end)
         for pair in index.tolist():
             r = results[pair]
-            got += (r.normal, r.getNearestPoint1(), r.getNearestPoint2())
-        vec = np.concatenate(got).reshape(k, 3, 3).transpose(1, 2, 0)  # (vector, axis, row)
+            got += (r.normal, r.getNearestPoint1())
+        vec = np.concatenate(got).reshape(k, 2, 3).transpose(1, 2, 0)  # (vector, axis, row)
         n = np.negative(vec[0])  # (3, k); coal's normal points from shape 1 to shape 2
-        p = vec[1:]  # (2, 3, k): p1 and p2
-        # p x n for both points, component by component (np.cross costs several times more)
-        x = np.empty((3, 2, k))
-        x[0] = p[:, 1] * n[2] - p[:, 2] * n[1]
-        x[1] = p[:, 2] * n[0] - p[:, 0] * n[2]
-        x[2] = p[:, 0] * n[1] - p[:, 1] * n[0]
+        p = vec[1]
+        # p x n component by component (np.cross costs several times more on small arrays)
+        x = np.empty((3, k))
+        x[0] = p[1] * n[2] - p[2] * n[1]
+        x[1] = p[2] * n[0] - p[0] * n[2]
+        x[2] = p[0] * n[1] - p[1] * n[0]
         jac = self._data.J.reshape(6, -1)  # world frame, a view into the data
-        lin = n.T.dot(jac[:3])
-        ang = x.reshape(3, 2 * k).T.dot(jac[3:])  # rows 0..k-1: p1, k..2k-1: p2
         rows = out[:k]
-        np.add(lin, ang[:k], out=rows)
-        rows *= self._support1[index]
-        lin += ang[k:]
-        lin *= self._support2[index]
-        rows -= lin
+        np.dot(n.T, jac[:3], out=rows)
+        rows += x.T.dot(jac[3:])
+        rows *= self._support[index]
 
     # -------------------------------------------------------------------------- padding
     def set_padding(self, links: Iterable[str], radius: float) -> None:

@@ -185,8 +185,11 @@ class CollisionAvoidance(StrictModel):
     #: Damper gain ξ [m/s]: the approach speed allowed at d_i (lowered per pair so the
     #: damper never asks for more deceleration than the joints can give, see the docs).
     damping: float = Field(default=0.3, gt=0.0, le=5.0)
-    #: Most rows per cycle (the closest pairs within d_i); the QP keeps this many rows.
-    max_rows: int = Field(default=12, ge=1, le=200)
+    #: Look-ahead [s]: a pair closing in faster than (d − d_i) / lookahead gets its row
+    #: before d_i, early enough to brake (its allowance then starts at its approach speed).
+    lookahead: float = Field(default=0.25, ge=0.0, le=2.0)
+    #: Most rows per cycle (the most urgent pairs in range); the QP keeps this many rows.
+    max_rows: int = Field(default=16, ge=1, le=200)
 
     @model_validator(mode="after")
     def _check_order(self) -> CollisionAvoidance:

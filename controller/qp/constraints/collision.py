@@ -77,7 +77,10 @@ class CollisionAvoidance:
         self.influence = settings.influence
         self.security = settings.security
         self.damping = settings.damping
+        self.lookahead = settings.lookahead
         self.max_rows = min(settings.max_rows, len(distances))
+        #: The distances at the last call [m] (their change: the approach speeds).
+        self._d_last = np.full(len(distances), np.nan)
         self._a_max_all = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
         self._a_max = self._a_max_all.copy()
         #: Approach speed allowed per pair at the last cycle [m/s] (NaN: out of range).
@@ -102,9 +105,16 @@ class CollisionAvoidance:
         self._rows = rows
         dist = self.distances
         d = dist.distances
-        near = np.flatnonzero(d < self.influence)
+        # Pairs in range: closer than d_i, or closing in fast enough to get there within
+        # the look-ahead (approach speed from the distances of the last call: every pair at
+        # the cost of one subtraction); the most urgent first.
+        closing = np.subtract(self._d_last, d)
+        self._d_last[...] = d
+        np.fmax(closing, 0.0, out=closing)  # NaN (no last call): not closing
+        key = d - closing * (self.lookahead / self.dt)
+        near = np.flatnonzero(key < self.influence)
         if len(near) > self.max_rows:
-            near = near[np.argpartition(d[near], self.max_rows - 1)[: self.max_rows]]
+            near = near[np.argpartition(key[near], self.max_rows - 1)[: self.max_rows]]
         k = len(near)
         if not k:
             self.allowed[self.pairs] = np.nan
@@ -117,7 +127,7 @@ class CollisionAvoidance:
         a = BRAKING_SHARE * reach
         xi = np.minimum(self.damping, np.sqrt(a * span))
         gap = np.maximum(d[near] - self.security, 0.0)
-        damper = xi * gap / span
+        damper = xi * np.minimum(gap, span) / span  # ξ_k beyond d_i
         approach = -C.dot(cycle.v_prev)  # current approach speed [m/s]
         prev = self.allowed[near]  # NaN: the pair has just come into range
         fresh = np.isnan(prev)
