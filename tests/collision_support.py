@@ -82,6 +82,7 @@ class Stats:
     min_distance: float = np.inf
     below_security: int = 0
     qp_failures: int = 0
+    failures: list[str] = field(default_factory=list)
     security: float = 0.0
 
     @property
@@ -150,6 +151,7 @@ def run(
             stats.cycles += 1
             if core.state != CoreState.BUSY:  # a failed QP: recover and go on
                 stats.qp_failures += 1
+                stats.failures.extend(a.description for a in core.alarms)
                 core.clear_alarms()
                 core.servo_on()
                 motion = Targets(kin)

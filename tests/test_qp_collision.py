@@ -239,3 +239,35 @@ def test_collision_rows_cost_nothing_without_pairs_in_range() -> None:
     rows = RowBlock(np.zeros((c.max_rows, k.nv)), np.zeros(c.max_rows), np.zeros(c.max_rows))
     n = int(np.count_nonzero(c.distances.distances < c.influence))
     assert c.compute_qp_inequalities(CycleState(k, k.q, np.zeros(k.nv)), rows) == n
+
+
+def test_rows_and_box_always_have_a_common_solution() -> None:
+    """Many pairs in range, random velocities: whatever the rows ask, one velocity of the
+    cycle's joint box satisfies all of them (checked with an LP)."""
+    from scipy.optimize import linprog
+
+    from controller.qp.constraints import JointBox
+
+    k = kinematics("smartpal5")
+    c = collision_avoidance(k, DT)
+    assert c is not None
+    c.influence, c.max_rows = 0.3, 16  # many rows at once
+    box = JointBox(k, DT)
+    rng = np.random.default_rng(4)
+    v_max = np.array([k.robot.joints[n].velocity for n in k.joint_names])
+    rows = RowBlock(np.zeros((16, k.nv)), np.zeros(16), np.zeros(16))
+    asked = 0
+    for _ in range(60):
+        q = k.home() + rng.normal(0.0, 0.3, k.nv)
+        q = np.clip(q, box.q_min + 1e-3, box.q_max - 1e-3)
+        v = rng.uniform(-v_max, v_max)
+        lb, ub = box.compute_qp_bounds(q, v)
+        k.update(q)
+        c.distances.update(k.data)
+        n = c.compute_qp_inequalities(CycleState(k, q, v, lb, ub), rows)
+        live = rows.lo[:n] > -INF
+        asked += int(np.count_nonzero(rows.lo[:n][live] > rows.C[:n][live].dot(v)))
+        C, lo = rows.C[:n][live], rows.lo[:n][live]
+        result = linprog(np.zeros(k.nv), A_ub=-C, b_ub=-lo, bounds=list(zip(lb, ub, strict=True)))
+        assert result.status == 0, result.message
+    assert asked > 20  # the rows did ask for braking beyond the current velocity

@@ -638,7 +638,7 @@ def main() -> int:
     )
     args = parser.parse_args()
     if args.scenario == "arms-close":
-        import bench_ik_collision  # type: ignore[import-not-found]
+        import bench_ik_collision
 
         return int(bench_ik_collision.main(args))
 

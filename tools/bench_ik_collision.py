@@ -13,7 +13,8 @@ with two changes:
   ``SelfCollisionBarrier`` (hpp-fcl through Pinocchio, on imotion's own coal geometry, the
   closest ``max_rows`` pairs, ``d_min`` = d_s); mink's ``CollisionAvoidanceLimit`` (MuJoCo's
   ``mj_geomDistance`` on the collision geoms of robot.xml, the same link pairs,
-  ``minimum_distance_from_collisions`` = d_s, ``collision_detection_distance`` = d_i).
+  ``minimum_distance_from_collisions`` = d_s, ``collision_detection_distance`` = d_i; the
+  collision geoms get contype/conaffinity 1 in mink's model, else its limit skips them).
 
 It also runs imotion without the collision rows on the same scenario: the difference of the
 medians is the extra cost of the rows per cycle. The JSON line adds ``ours_no_rows_us``,
@@ -24,17 +25,20 @@ model after each integration, outside the timed step).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import mink
 import numpy as np
 import pink
 import pinocchio as pin
-from bench_ik import (  # type: ignore[import-not-found]
+from bench_ik import (
     ImotionRunner,
     MinkRunner,
     PinkRunner,
     Result,
+    Runner,
     Targets,
     Trajectory,
     fastest,
@@ -181,6 +185,9 @@ class CollisionMink(MinkRunner):
             name = model.geom(g).name
             if "/" in name:
                 geoms.setdefault(name.rsplit("/", 1)[0], []).append(name)
+                # robot.xml keeps contype/conaffinity 0 (no contacts); mink's limit skips
+                # such geoms: make the collision geoms eligible (kinematics only here).
+                model.geom_contype[g] = model.geom_conaffinity[g] = 1
         settings = robot.profile.collision_avoidance
         geom_pairs = [(geoms[a], geoms[b]) for a, b in pairs if a in geoms and b in geoms]
         self.limits.append(
@@ -213,12 +220,12 @@ def main(args: Any) -> int:
     traj = Trajectory({s: kin.pose(s) for s in kin.arms}, args.radius, args.period, args.wobble)
     targets = make_targets(kin, traj, dt, cycles, args.twist == "secant")
     solvers = [s for s in args.peer_solvers.split(",") if s in qpsolvers.available_solvers]
-    makers = [
-        lambda: CollisionImotion(robot, targets, dt, start, rows=True),
-        lambda: CollisionImotion(robot, targets, dt, start, rows=False),
+    makers: list[Callable[[], Runner]] = [
+        partial(CollisionImotion, robot, targets, dt, start, rows=True),
+        partial(CollisionImotion, robot, targets, dt, start, rows=False),
     ]
-    makers += [lambda s=s: CollisionPink(robot, targets, dt, s, start) for s in solvers]
-    makers += [lambda s=s: CollisionMink(robot, targets, dt, s, start) for s in solvers]
+    makers += [partial(CollisionPink, robot, targets, dt, s, start) for s in solvers]
+    makers += [partial(CollisionMink, robot, targets, dt, s, start) for s in solvers]
     judge = Kinematics(robot)
     pairs = load_collision_pairs(collision_path(robot)).checked
     measure = CollisionDistances(judge.model, robot.model, pairs)

@@ -22,8 +22,11 @@ the joints' braking distances):
   more deceleration than ``a_k``;
 * **below d_s**: the damper's value is 0, "no further closer" (after braking as above); the
   rows never push a pair apart (``lo ≤ 0``), so an overlap is never resolved violently;
-* with the cycle's joint box, a row never asks for a rate the box cannot give (the most the
-  box allows, shrunk by a margin, instead).
+* with the cycle's joint box, the rows never ask for more than one common velocity ``v*`` of
+  the box gives them: each joint moved from ``v_prev`` by ``a_max·dt`` in the direction the
+  rows asking for more than ``v_prev`` want (a single row gets its strongest braking). ``v*``
+  satisfies every row and the box, so they are never infeasible together, however many
+  pairs are in range.
 
 Both levels; relaxation "no further" (``lo ≤ 0`` always holds: the rows are never dropped).
 More pairs in range than ``max_rows``: the closest ones.
@@ -47,11 +50,11 @@ from controller.qp.constraints.protocol import (
     RowBlock,
 )
 
-#: Share of the box's reachable interval of ``J_d v`` kept free at its end (as the axis rows).
-REACH_MARGIN = 0.01
-#: Rows whose distance Jacobian is shorter than this [m/rad] are left free (the pair's
-#: distance does not depend on the joints there: nothing to constrain).
-MIN_ROW_NORM = 1e-6
+#: A row's bound is kept this far [m/s] below what braking every joint gives.
+BRAKE_MARGIN = 1e-7
+#: Rows whose pair can decelerate less than this [m/s²] (``Σ_j |J_d,j|·a_max,j``) are left
+#: free: the pair's distance does not depend on the (free) joints there.
+MIN_REACH = 1e-6
 #: A row binds when ``J_d v`` is within this [m/s] of its bound.
 BINDING_TOL = 1e-5
 
@@ -82,9 +85,13 @@ class CollisionAvoidance:
         #: The distances at the last call [m] (their change: the approach speeds).
         self._d_last = np.full(len(distances), np.nan)
         self._a_max_all = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
-        self._a_max = self._a_max_all.copy()
-        #: Approach speed allowed per pair at the last cycle [m/s] (NaN: out of range).
-        self.allowed = np.full(len(distances), np.nan)
+        nv = len(self._a_max_all)
+        #: Scratch columns: (v_prev, ub + lb) and (a_max of the free joints, ub − lb).
+        self._vm = np.zeros((nv, 2))
+        self._ah = np.zeros((nv, 2))
+        self._ah[:, 0] = self._a_max_all
+        #: Approach speed allowed per pair at the last cycle [m/s] (INF: out of range).
+        self.allowed = np.full(len(distances), INF)
         #: The pairs of this cycle's rows, in row order, and their lower bounds [m/s].
         self.pairs = np.zeros(0, dtype=int)
         self._rows_lo = np.zeros(self.max_rows)
@@ -99,7 +106,7 @@ class CollisionAvoidance:
 
     def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
         """Frozen joints give no deceleration."""
-        self._a_max = np.where(setup.frozen, 0.0, self._a_max_all)
+        self._ah[:, 0] = np.where(setup.frozen, 0.0, self._a_max_all)
 
     def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
         self._rows = rows
@@ -117,56 +124,84 @@ class CollisionAvoidance:
             near = near[np.argpartition(key[near], self.max_rows - 1)[: self.max_rows]]
         k = len(near)
         if not k:
-            self.allowed[self.pairs] = np.nan
+            self.allowed[self.pairs] = INF
             self.pairs = near
             return 0
         C, lo, hi = rows.C[:k], rows.lo[:k], rows.hi[:k]
         dist.jacobian_into(near, C)
-        span = self.span
-        reach = np.abs(C).dot(self._a_max)  # most deceleration of each pair [m/s²]
+        span, dt = self.span, self.dt
+        # Two products per row give what the rows need: with mid = (ub + lb)/2 and
+        # half = (ub − lb)/2, J_d v over the box spans J_d·mid ± |J_d|·half.
+        vm, ah = self._vm, self._ah
+        v_prev, lb, ub = cycle.v_prev, cycle.lb, cycle.ub
+        vm[:, 0] = v_prev
+        if lb is not None and ub is not None:
+            np.add(ub, lb, out=vm[:, 1])
+            np.subtract(ub, lb, out=ah[:, 1])
+        else:
+            vm[:, 1] = 0.0
+            ah[:, 1] = INF
+        signed = C.dot(vm)  # (k, 2): d' at v_prev, 2 J_d·mid
+        spread = np.abs(C).dot(ah)  # (k, 2): most deceleration [m/s²], 2 |J_d|·half
+        reach = spread[:, 0]
         a = BRAKING_SHARE * reach
-        xi = np.minimum(self.damping, np.sqrt(a * span))
-        gap = np.maximum(d[near] - self.security, 0.0)
-        damper = xi * np.minimum(gap, span) / span  # ξ_k beyond d_i
-        approach = -C.dot(cycle.v_prev)  # current approach speed [m/s]
-        prev = self.allowed[near]  # NaN: the pair has just come into range
-        fresh = np.isnan(prev)
-        speed = np.where(fresh, approach, np.minimum(prev, approach))
+        xi = np.sqrt(a * span)
+        np.minimum(xi, self.damping, out=xi)
+        gap = d[near] - self.security
+        np.maximum(gap, 0.0, out=gap)
+        damper = np.minimum(gap, span)
+        damper *= xi / span  # ξ_k·g/(d_i − d_s), ξ_k beyond d_i
+        approach = np.negative(signed[:, 0])  # current approach speed [m/s]
+        prev = self.allowed[near]  # INF: the pair has just come into range
+        speed = np.minimum(prev, approach)
         # Slow down at a, or faster (up to all the joints can) when a cannot stop the pair
         # by d_s any more: at the deceleration that stops it there, s²/(2g).
-        with np.errstate(divide="ignore", invalid="ignore"):
-            need = np.where(gap > 0.0, speed * speed / (2.0 * gap), INF)
-        rate = np.minimum(np.maximum(need, a), reach)
-        rate[fresh] = 0.0  # on entry: the current approach speed (satisfied as it is)
-        allowed = np.minimum(np.where(fresh, approach, prev - rate * self.dt), approach)
+        need = speed * speed / (2.0 * gap + 1e-12)
+        rate = np.clip(need, a, reach)
+        rate *= dt
+        # On entry (prev = INF) the current approach speed: satisfied as it is.
+        allowed = np.minimum(prev - rate, approach)
         np.maximum(allowed, damper, out=allowed)
-        np.maximum(allowed, 0.0, out=allowed)
-        self.allowed[self.pairs] = np.nan  # pairs that left the range start afresh
+        self.allowed[self.pairs] = INF  # pairs that left the range start afresh
         self.pairs = near
         self.allowed[near] = allowed
         np.negative(allowed, out=lo)
-        if cycle.lb is not None and cycle.ub is not None:
-            # The most J_d v the box allows, shrunk: the row asks for at most that.
-            pos = np.maximum(C, 0.0)
-            neg = C - pos
-            high = pos.dot(cycle.ub) + neg.dot(cycle.lb)
-            low = pos.dot(cycle.lb) + neg.dot(cycle.ub)
-            np.minimum(lo, high - REACH_MARGIN * (high - low), out=lo)
-            self._low[:k] = low
-        else:
-            self._low[:k] = -INF
+        if lb is not None and ub is not None:
+            self._common(C, lo, signed[:, 0], reach, v_prev, lb, ub)
+        low = signed[:, 1] - spread[:, 1]
+        # A pair whose distance hardly depends on the joints (|J_d| ~ 0) gets a free row.
+        lo[reach < MIN_REACH] = -INF
         hi[...] = INF
-        # Unit rows (the solver's tolerances are absolute): J_d v / |J_d| ≥ lo / |J_d|. A
-        # pair whose distance hardly depends on the joints (|J_d| ~ 0) gets a free row.
-        norm = np.sqrt(np.einsum("ij,ij->i", C, C))
-        weak = norm < MIN_ROW_NORM
-        norm[weak] = 1.0
-        C /= norm[:, None]
-        lo /= norm
-        lo[weak] = -INF
-        self._low[:k] /= norm
+        low *= 0.5
+        self._low[:k] = low
         self._rows_lo[:k] = lo  # before the IK shifts them (frozen joints' share)
         return k
+
+    def _common(
+        self,
+        C: np.ndarray,
+        lo: np.ndarray,
+        now: np.ndarray,
+        reach: np.ndarray,
+        v_prev: np.ndarray,
+        lb: np.ndarray,
+        ub: np.ndarray,
+    ) -> None:
+        """Lower ``lo`` to what one velocity in the box gives every row: ``v*``, each joint
+        accelerated at its limit in the direction the rows short of ``v_prev`` want (their
+        shortfalls weighted by 1/reach). One row alone gets its best braking; rows that
+        disagree get what a common velocity gives: rows and box are never infeasible."""
+        short = lo - now  # what each row asks beyond v_prev [m/s]
+        np.maximum(short, 0.0, out=short)
+        short /= np.maximum(reach, MIN_REACH)
+        direction = np.sign(C.T.dot(short))
+        direction *= self._ah[:, 0]
+        direction *= self.dt
+        direction += v_prev
+        np.clip(direction, lb, ub, out=direction)
+        cap = C.dot(direction)
+        cap -= BRAKE_MARGIN
+        np.minimum(lo, cap, out=lo)
 
     def binding(self, v: np.ndarray, within: float = INF) -> int:
         """The pair (index into ``distances``) whose row ``v`` [rad/s, m/s] meets at its
