@@ -50,8 +50,10 @@ from controller.qp.constraints.protocol import (
     RowBlock,
 )
 
-#: A row's bound is kept this far [m/s] below what braking every joint gives.
-BRAKE_MARGIN = 1e-7
+#: The common velocity stays this share of the box inside it, and each row's bound this far
+#: [m/s] below what it gives: a feasible set that is only a corner defeats solvers.
+INTERIOR = 0.05
+BRAKE_MARGIN = 1e-6
 #: Rows whose pair can decelerate less than this [m/s²] (``Σ_j |J_d,j|·a_max,j``) are left
 #: free: the pair's distance does not depend on the (free) joints there.
 MIN_REACH = 1e-6
@@ -196,9 +198,11 @@ class CollisionAvoidance:
         short /= np.maximum(reach, MIN_REACH)
         direction = np.sign(C.T.dot(short))
         direction *= self._ah[:, 0]
-        direction *= self.dt
+        direction *= (1.0 - INTERIOR) * self.dt
         direction += v_prev
-        np.clip(direction, lb, ub, out=direction)
+        # Inside the box (a corner of the box and the rows is what solvers miss numerically).
+        inset = INTERIOR * (ub - lb)
+        np.clip(direction, lb + inset, ub - inset, out=direction)
         cap = C.dot(direction)
         cap -= BRAKE_MARGIN
         np.minimum(lo, cap, out=lo)
