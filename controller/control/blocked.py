@@ -12,6 +12,13 @@ links, and ends the motion once its time law has stopped (held still, Ready).
 
 from __future__ import annotations
 
+import numpy as np
+
+from controller.model.kinematics import Kinematics
+from controller.motion.arrival import tracking_error
+from controller.qp.constraints.collision import CollisionAvoidance
+from controller.qp.tasks import Task
+
 #: Tracking error [m] (see :func:`controller.motion.arrival.tracking_error`) above which a
 #: motion whose collision rows bind is not following its path.
 BLOCKED_ERROR = 0.005
@@ -49,3 +56,24 @@ class BlockWatch:
             return False
         self._elapsed += step
         return self._elapsed >= self.time
+
+    def check(
+        self,
+        rows: CollisionAvoidance,
+        v: np.ndarray,
+        kin: Kinematics,
+        tasks: list[Task],
+        step: float,
+    ) -> str | None:
+        """One cycle of ``step`` [s] with commanded velocity ``v`` [rad/s, m/s]: None, or
+        (once blocked) what blocks the motion, for the warning."""
+        pair = rows.binding(v, rows.security + BLOCKED_GAP * rows.span)
+        error = tracking_error(kin, tasks) if pair >= 0 else 0.0
+        if not self.observe(pair, error, step):
+            return None
+        a, b = rows.distances.pair_links[pair]
+        gap = rows.distances.distances[pair]
+        return (
+            f"motion stopped on its path: {a} and {b} are {gap * 1e3:.1f} mm apart and may "
+            f"not come closer than {rows.security * 1e3:g} mm"
+        )

@@ -21,12 +21,12 @@ import threading
 
 import numpy as np
 
-from controller.control.blocked import BLOCKED_GAP, BlockWatch
+from controller.control.blocked import BlockWatch
 from controller.errors import StateError
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
-from controller.motion.arrival import hold_posture, off_target, tracking_error
+from controller.motion.arrival import hold_posture, off_target
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
@@ -393,20 +393,11 @@ class MotionCore:
             return
         if self.state != CoreState.BUSY:
             return
-        pair = collision.binding(self.v_cmd, collision.security + BLOCKED_GAP * collision.span)
-        error = tracking_error(self.kin, self.ik.tasks) if pair >= 0 else 0.0
-        if not self._block_watch.observe(pair, error, step):
-            return
-        self._blocked = True
-        motion.stop()
-        a, b = collision.distances.pair_links[pair]
-        gap = collision.distances.distances[pair]
-        self.warn(
-            AlarmCode.MOTION_BLOCKED,
-            "qp",
-            f"motion stopped on its path: {a} and {b} are {gap * 1e3:.1f} mm apart and may "
-            f"not come closer than {collision.security * 1e3:g} mm",
-        )
+        why = self._block_watch.check(collision, self.v_cmd, self.kin, self.ik.tasks, step)
+        if why is not None:
+            self._blocked = True
+            motion.stop()
+            self.warn(AlarmCode.MOTION_BLOCKED, "qp", why)
 
     def _finish_motion(self) -> None:
         """A motion ends once its time law has ended *and* the robot is on the final targets
