@@ -103,6 +103,7 @@ def run(
     seed: int,
     cycles: int = 100,
     tol: float = 1e-4,
+    progress: int = 0,
     **overrides: float,
 ) -> Stats:
     """``commands`` random commands of ``cycles`` cycles each; ``tol`` [m]: how far below d_s
@@ -146,6 +147,10 @@ def run(
         for axis in motion.axes:
             axis.set_target(axis_value(planning, axis.axis))
         stats.commands += 1
+        if progress and stats.commands % progress == 0:
+            print(
+                f"{robot_id}: {stats.commands} commands, min {stats.min_distance:.4f} m", flush=True
+            )
         for _ in range(cycles):
             core.cycle()
             stats.cycles += 1

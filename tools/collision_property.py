@@ -29,13 +29,14 @@ def main() -> int:
     parser.add_argument("--robots", default=",".join(robot_ids()))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cycles", type=int, default=100, help="per command (2 ms each)")
+    parser.add_argument("--progress", type=int, default=0, help="print every N commands")
     args = parser.parse_args()
     robots = args.robots.split(",")
     out = []
     for i, robot_id in enumerate(robots):
         n = args.commands // len(robots) + (1 if i < args.commands % len(robots) else 0)
         t0 = time.perf_counter()
-        s = run(robot_id, n, args.seed, args.cycles)
+        s = run(robot_id, n, args.seed, args.cycles, progress=args.progress)
         wall = time.perf_counter() - t0
         print(
             f"{robot_id:10s} {s.commands} commands, {s.cycles} cycles: min distance "
