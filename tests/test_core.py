@@ -281,3 +281,29 @@ def test_no_net_allocation_per_cycle_after_warm_up():
     assert core.motion is motion and not motion.finished  # measured while moving
     grown = sum(d.size_diff for d in after.compare_to(before, "lineno"))
     assert grown < 16 * 1024, after.compare_to(before, "lineno")[:5]
+
+
+def test_collision_distances_are_updated_once_per_cycle_while_the_ik_solves():
+    """Issue 10: the core updates the collision distances once per cycle, after the
+    kinematics (the rows read them), and not at all while every joint is held."""
+    core = make_core("smartpal5")
+    assert core.collision is not None
+    dist = core.collision.distances
+    seen: list[np.ndarray] = []
+    update = dist.update
+
+    def counted(data):
+        np.testing.assert_allclose(core.kin.q, core.q)  # the kinematics are this cycle's
+        seen.append(core.kin.q.copy())
+        update(data)
+
+    dist.update = counted  # type: ignore[method-assign]
+    for _ in range(10):
+        core.cycle()
+    assert not seen  # holding: nothing solved, nothing computed
+    j1 = np.array([core.kin.index("r_arm_j1")])
+    goal = core.kin.q[j1] + 0.2
+    core.start(JointMotion(core.kin, DT, j1, goal, np.array([0.5]), np.array([1.0])))
+    for n in range(1, 21):
+        core.cycle()
+        assert len(seen) == n

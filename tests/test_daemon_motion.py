@@ -71,7 +71,11 @@ def test_ptp_joint_at_full_speed_never_passes_its_target(noid):
     d = noid
     assert code(d.middle.SetSpeedJoint(M("SetSpeedJoint", spd_ratio=100))) == OK
     target = jara_joints(d)[:7]
-    start = target[2]
+    start = target.copy()
+    # Shoulder out (pitch and roll -20 deg): the forearm then clears the waist over J3's
+    # whole sweep; from home it would pass through the waist's collision shape, where the
+    # collision rows stop it (issue 10).
+    target[0] = target[1] = -20.0
     target[2] = -40.0
     assert code(d.middle.MovePTPJointAbs(M("MovePTPJointAbs", joint_points=target))) == OK
     assert d.wait_idle()
@@ -80,10 +84,8 @@ def test_ptp_joint_at_full_speed_never_passes_its_target(noid):
     samples = watch(d, lambda: jara_joints(d)[:7])
     assert samples[:, 2].max() <= 85.0 + 1e-3, samples[:, 2].max()
     np.testing.assert_allclose(samples[-1], target, atol=1e-3)
-    # back: at 85 deg the forearm is inside the waist's collision shape (issue 10), where
-    # the next tests' Cartesian moves would be refused for going deeper
-    target[2] = start
-    assert code(d.middle.MovePTPJointAbs(M("MovePTPJointAbs", joint_points=target))) == OK
+    # back where the next tests expect the arm
+    assert code(d.middle.MovePTPJointAbs(M("MovePTPJointAbs", joint_points=start))) == OK
     assert d.wait_idle()
 
 

@@ -109,9 +109,21 @@ def test_ptp_axes_start_and_arrive_together(robot_id: str):
     box = core.ik.box
     start = core.q_cmd[joints].copy()
     lo, hi = box.q_min[joints], box.q_max[joints]
-    # A different move for every joint, well inside its range.
-    signs = np.resize([1.0, -1.0], len(joints))
-    target = np.clip(start + signs * 0.25 * (hi - lo), lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))
+    # A different move for every joint, well inside its range, to a pose free of
+    # self-collision (the collision rows would stop it short: RH's first choice folds the
+    # flange into link4).
+    for signs in (np.resize([1.0, -1.0], len(joints)), np.resize([-1.0, 1.0], len(joints))):
+        target = np.clip(
+            start + signs * 0.25 * (hi - lo), lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo)
+        )
+        q = core.kin.q.copy()
+        q[joints] = target
+        assert core.collision is not None
+        core.collision.distances.compute(q)
+        if core.collision.distances.distances.min() > core.collision.security + 1e-3:
+            break
+    else:
+        pytest.fail("no collision-free target")
     delta = target - start
     moving = np.abs(delta) > 1e-3
     motion = JointMotion(core.kin, DT, joints, target, box.v_max[joints], box.a_max[joints])

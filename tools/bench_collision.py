@@ -6,8 +6,14 @@ Usage: python tools/bench_collision.py [--robot smartpal5] [--configs 2000] [--r
 At seeded random configurations within the joint limits it times, per configuration:
 ``distances`` (coal on every checked shape pair, C++ only), ``update`` (geometry placements,
 distances and reading them into numpy: what a control cycle pays), ``jacobian_rows`` (witness
-points and Jacobian rows of the ``--rows`` closest pairs) and ``jacobian_all``. Prints medians
-and p99 in microseconds, then one JSON line.
+points and Jacobian rows of the ``--rows`` closest pairs, ``jacobian_into`` as the control
+cycle calls it), ``jacobian_all``, and ``constraint``: the QP rows of the collision constraint
+(``CollisionAvoidance.compute_qp_inequalities`` with the cycle's joint box, the pairs within
+the profile's influence distance, Jacobians included). ``update + constraint`` is the
+per-cycle extra cost of the rows before the QP (which then has more rows: see
+``tools/bench_ik.py --scenario arms-close`` for the whole step). Configurations are drawn near
+home (σ = 0.5 rad) so that some pairs are in range. Prints medians and p99 in microseconds,
+then one JSON line.
 """
 
 from __future__ import annotations
@@ -27,6 +33,8 @@ from controller.model.collision import CollisionDistances
 from controller.model.collision_pairs import collision_path, load_collision_pairs
 from controller.model.kinematics import Kinematics
 from controller.model.robot import load_robot
+from controller.qp.constraints import CycleState, JointBox, RowBlock
+from controller.qp.constraints.collision import collision_avoidance
 
 
 def main() -> int:
@@ -60,11 +68,22 @@ def main() -> int:
     no_box_data = pin.GeometryData(no_box)
 
     times: dict[str, list[float]] = {
-        k: [] for k in ("distances", "update", "rows", "all", "no_box")
+        k: [] for k in ("distances", "update", "rows", "all", "no_box", "constraint")
     }
+    rows_used: list[int] = []
+    constraint = collision_avoidance(kin, 0.002)
+    assert constraint is not None
+    box = JointBox(kin, 0.002)
+    block = RowBlock(
+        np.zeros((constraint.max_rows, model.nv)),
+        np.zeros(constraint.max_rows),
+        np.zeros(constraint.max_rows),
+    )
+    out_rows = np.zeros((args.rows, model.nv))
     clock = time.perf_counter
+    home = kin.home()
     for _ in range(args.configs):
-        q = rng.uniform(lo, hi)
+        q = np.clip(home + rng.normal(0.0, 0.5, model.nv), lo, hi)
         kin.update(q)
         t0 = clock()
         dist.update(kin.data)
@@ -72,7 +91,7 @@ def main() -> int:
         pin.computeDistances(dist.geometry, dist.geometry_data)
         t2 = clock()
         closest = np.argsort(dist.distances)[: args.rows]
-        dist.jacobian(closest)
+        dist.jacobian_into(closest, out_rows)
         t3 = clock()
         dist.jacobian()
         t4 = clock()
@@ -81,6 +100,14 @@ def main() -> int:
         pin.computeDistances(no_box, no_box_data)
         t6 = clock()
         times["no_box"].append(t6 - t5)
+        v = np.zeros(model.nv)
+        lb, ub = box.compute_qp_bounds(q, v)
+        constraint.distances.update(kin.data)
+        cycle = CycleState(kin, q, v, lb, ub)
+        t7 = clock()
+        rows_used.append(constraint.compute_qp_inequalities(cycle, block))
+        t8 = clock()
+        times["constraint"].append(t8 - t7)
         times["update"].append(t1 - t0)
         times["distances"].append(t2 - t1)
         times["rows"].append(t3 - t2)
@@ -99,9 +126,15 @@ def main() -> int:
         ("update", "update (placements + distances + read)"),
         ("rows", f"jacobian, {args.rows} closest rows"),
         ("all", f"jacobian, all {n} rows"),
+        ("constraint", f"constraint rows (median {np.median(rows_used):.0f} in range)"),
     ):
         print(f"  {label:42s} median {med(key):8.1f} us   p99 {p99(key):8.1f} us")
     print(f"  per shape pair (coal): {med('distances') / n:.2f} us")
+    extra = np.add(times["update"], times["constraint"])
+    print(
+        f"  per-cycle extra before the QP (update + constraint): median "
+        f"{np.median(extra) * 1e6:.1f} us, p99 {np.percentile(extra, 99) * 1e6:.1f} us"
+    )
     nb = no_box.collisionPairs.__len__()
     print(f"  coal on the {nb} pairs without a box: median {med('no_box'):.1f} us")
     out = {
@@ -117,6 +150,9 @@ def main() -> int:
         "jacobian_rows_us": round(med("rows"), 1),
         "jacobian_all_us": round(med("all"), 1),
         "per_shape_pair_us": round(med("distances") / n, 3),
+        "constraint_us": round(med("constraint"), 1),
+        "constraint_rows_median": float(np.median(rows_used)),
+        "per_cycle_extra_us": round(float(np.median(extra)) * 1e6, 1),
         "no_box_pairs": nb,
         "no_box_distances_us": round(med("no_box"), 1),
     }

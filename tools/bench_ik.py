@@ -2,6 +2,8 @@
 """Benchmark one whole-body IK step of imotion against Pink and mink on the same problem.
 
 Usage: python tools/bench_ik.py --robot smartpal5 [--steps 2000] [--rate 500] [--profile]
+       python tools/bench_ik.py --scenario arms-close [--gap 0.03]   (collision rows active:
+       see tools/bench_ik_collision.py)
 
 One IK step = kinematics update + QP build + QP solve (plus setting the cycle's targets), timed
 with ``time.perf_counter_ns`` after ``--warmup`` cycles. Each library runs its own closed loop
@@ -624,7 +626,21 @@ def main() -> int:
         help="Pink/mink QP tolerance as a velocity [rad/s] (default: the solvers' own)",
     )
     parser.add_argument("--profile", action="store_true", help="also cProfile imotion's step")
+    parser.add_argument(
+        "--scenario",
+        choices=("figure-eight", "arms-close"),
+        default="figure-eight",
+        help="arms-close: hands close together with the collision limits of all three "
+        "(tools/bench_ik_collision.py)",
+    )
+    parser.add_argument(
+        "--gap", type=float, default=0.03, help="arms-close: the hands' starting gap [m]"
+    )
     args = parser.parse_args()
+    if args.scenario == "arms-close":
+        import bench_ik_collision
+
+        return int(bench_ik_collision.main(args))
 
     dt = 1.0 / args.rate
     cycles = args.warmup + args.steps

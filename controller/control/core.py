@@ -21,6 +21,7 @@ import threading
 
 import numpy as np
 
+from controller.control.blocked import BlockWatch
 from controller.errors import StateError
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.model.kinematics import Kinematics
@@ -29,6 +30,7 @@ from controller.motion.arrival import hold_posture, off_target
 from controller.motion.motions import IKSetup, Motion
 from controller.motion.paths import VectorPath
 from controller.motion.profile import PathProfile
+from controller.qp.constraints.collision import collision_avoidance
 from controller.qp.ik import IKResult, WholeBodyIK
 from controller.qp.solver import DEFAULT_SOLVER
 from controller.vocabulary import CoreState, RightLeft
@@ -86,6 +88,14 @@ class MotionCore:
         self.kin = Kinematics(robot)
         self._planning = Kinematics(robot)
         self.ik = WholeBodyIK(self.kin, dt, solver)
+        #: The collision rows (None: disabled in the profile); their distances are updated
+        #: once per cycle, after the kinematics, when the IK solves.
+        self.collision = collision_avoidance(self.kin, dt)
+        if self.collision is not None:
+            self.ik.add(self.collision)
+        self._block_watch = BlockWatch()
+        #: The current motion was stopped because the collision rows held it back.
+        self._blocked = False
         names = list(hardware.joint_names)
         missing = [n for n in self.kin.joint_names if n not in names]
         if missing:
@@ -181,6 +191,8 @@ class MotionCore:
             motion.respect_limits(box.q_min, box.q_max, box.a_brake)
             self._apply(motion.setup())
             self.motion = motion
+            self._block_watch.reset()
+            self._blocked = False
             self.state = CoreState.BUSY
 
     def stop(self) -> None:
@@ -347,6 +359,8 @@ class MotionCore:
                     self.raise_alarm(AlarmCode.TRAJECTORY_FAILURE, "motion", str(exc))
                     self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
                     return
+            if self.collision is not None and self.ik.solves:
+                self.collision.distances.update(self.kin.data)
             try:
                 result = self.ik.solve(self.q_cmd, self.v_cmd)
             except Exception as exc:  # a solver or numerical error is a failed solve
@@ -368,7 +382,22 @@ class MotionCore:
                     self._hw_vel[idx] = 0.0
                     del self._gripper_motion[side]
             self.hw.write(JointCommand(self._hw_cmd, self._hw_vel))
+            self._watch_blocking(step)
             self._finish_motion()
+
+    def _watch_blocking(self, step: float) -> None:
+        """Stop a running motion the collision rows hold back (see
+        :mod:`controller.control.blocked`), with one MOTION_BLOCKED warning."""
+        motion, collision = self.motion, self.collision
+        if motion is None or collision is None or self._blocked or motion.paused:
+            return
+        if self.state != CoreState.BUSY:
+            return
+        why = self._block_watch.check(collision, self.v_cmd, self.kin, self.ik.tasks, step)
+        if why is not None:
+            self._blocked = True
+            motion.stop()
+            self.warn(AlarmCode.MOTION_BLOCKED, "qp", why)
 
     def _finish_motion(self) -> None:
         """A motion ends once its time law has ended *and* the robot is on the final targets
@@ -387,6 +416,9 @@ class MotionCore:
             self._hold()
         if not motion.finished:
             self._settling = 0.0
+            return
+        if self._blocked:  # stopped short of its target (said so): hold where it is
+            self._end_motion()
             return
         if self._settling == 0.0:
             hold_posture(self.kin, self.ik.tasks)

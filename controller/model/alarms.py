@@ -40,6 +40,7 @@ class AlarmCode(enum.IntEnum):
     LOOP_OVERRUN = 0x411  #: control cycles missed their deadline
     TRAJECTORY_FAILURE = 0x412  #: the time law could not be computed
     MOTION_INCOMPLETE = 0x413  #: (warning) a motion ended off its target or not at rest
+    MOTION_BLOCKED = 0x414  #: (warning) collision rows held a motion back: stopped on its path
 
 
 @dataclass(frozen=True)

@@ -144,6 +144,12 @@ class CollisionDistances:
                     objs = self.geometry.geometryObjects
                     joints.append((objs[i].parentJoint, objs[k].parentJoint))
         self._joint_array = np.array(joints, dtype=int).reshape(-1, 2)
+        #: Per pair and side, 1.0 on the velocity columns of the joints that move the shape.
+        support = self._support_masks(self._joint_array[:, 0])
+        support -= self._support_masks(self._joint_array[:, 1])
+        #: Per pair, +1 on the velocity columns moving shape 1 only, -1 on those moving
+        #: shape 2 only, 0 elsewhere (common ancestors move both alike).
+        self._support = support
         self.geometry_data = pin.GeometryData(self.geometry)
         for req in self.geometry_data.distanceRequests:
             req.enable_signed_distance = True
@@ -156,6 +162,16 @@ class CollisionDistances:
         #: Signed distance of each pair [m] at the last update (negative: overlap).
         self.distances = np.zeros(len(self.pair_links))
         self._data: pin.Data = self._own_data
+
+    def _support_masks(self, joints: np.ndarray) -> np.ndarray:
+        """``len(joints) x nv``: 1.0 where a velocity moves the joint's frame (0: the world)."""
+        model = self.model
+        out = np.zeros((len(joints), model.nv))
+        for i, joint in enumerate(joints.tolist()):
+            for a in model.supports[joint] if joint else []:
+                if a:
+                    out[i, model.joints[a].idx_v : model.joints[a].idx_v + model.joints[a].nv] = 1
+        return out
 
     def __len__(self) -> int:
         return len(self.pair_links)
@@ -191,35 +207,45 @@ class CollisionDistances:
         """Distance Jacobian rows ``n^T (J_p1 - J_p2)`` [m/rad or m/m], ``len(rows) x nv``.
 
         ``rows``: pair indices (default all). Reads the data of the last :meth:`update`.
-        Each joint's Jacobian is fetched once; the rows are built in one batch.
         """
         index = np.arange(len(self)) if rows is None else np.asarray(rows, dtype=int)
         out = np.zeros((len(index), self.model.nv))
-        if not len(index):
-            return out
-        picked = [self._results[k] for k in index]
-        n = -np.array([r.normal for r in picked])
-        for side, sign in ((0, 1.0), (1, -1.0)):
-            points = np.array(
-                [r.getNearestPoint1() if side == 0 else r.getNearestPoint2() for r in picked]
-            )
-            joints, inverse = np.unique(self._joint_array[index, side], return_inverse=True)
-            jac = np.stack([self._joint_jacobian(int(j)) for j in joints])[inverse]
-            origin = np.array([self._data.oMi[int(j)].translation for j in joints])[inverse]
-            r = points - origin
-            # n . (v + w x r) = n . v + (r x n) . w
-            rxn = r[:, [1, 2, 0]] * n[:, [2, 0, 1]] - r[:, [2, 0, 1]] * n[:, [1, 2, 0]]
-            out += sign * (
-                np.einsum("ki,kin->kn", n, jac[:, :3]) + np.einsum("ki,kin->kn", rxn, jac[:, 3:])
-            )
+        self.jacobian_into(index, out)
         return out
 
-    def _joint_jacobian(self, joint: int) -> np.ndarray:
-        """``6 x nv`` Jacobian of a joint's origin, world axes (zero for the world, 0)."""
-        if joint == 0:
-            return np.zeros((6, self.model.nv))
-        jac = pin.getJointJacobian(self.model, self._data, joint, pin.LOCAL_WORLD_ALIGNED)
-        return np.asarray(jac).reshape(6, self.model.nv)  # eigenpy gives (6,) when nv == 1
+    def jacobian_into(self, index: np.ndarray, out: np.ndarray) -> None:
+        """:meth:`jacobian` of the pairs ``index`` written into ``out[:len(index)]`` (the
+        control cycle's form: no per-row Jacobian fetch, a few array operations).
+
+        With ``(v_O, w)`` the spatial velocity at the world origin of the whole chain (the
+        world Jacobian ``data.J`` that ``computeJointJacobians`` leaves), a point ``p`` of a
+        link moves at ``v_O + w x p`` through the columns of the link's supporting joints,
+        so ``n . p' = n . v_O + (p x n) . w`` over those columns. coal's witness points
+        satisfy ``p1 - p2 = d n`` (to rounding), so ``p2 x n = p1 x n``: one row
+        ``(n . v_O + (p1 x n) . w)`` masked with (support of shape 1) − (support of shape 2),
+        common joints cancelling. Per row two reads from coal, then a few array operations.
+        """
+        k = len(index)
+        if not k:
+            return
+        results = self._results
+        got: list[np.ndarray] = []  # normal, p1 of each row (one array at the end)
+        for pair in index.tolist():
+            r = results[pair]
+            got += (r.normal, r.getNearestPoint1())
+        vec = np.concatenate(got).reshape(k, 2, 3).transpose(1, 2, 0)  # (vector, axis, row)
+        n = np.negative(vec[0])  # (3, k); coal's normal points from shape 1 to shape 2
+        p = vec[1]
+        # p x n component by component (np.cross costs several times more on small arrays)
+        x = np.empty((3, k))
+        x[0] = p[1] * n[2] - p[2] * n[1]
+        x[1] = p[2] * n[0] - p[0] * n[2]
+        x[2] = p[0] * n[1] - p[1] * n[0]
+        jac = self._data.J.reshape(6, -1)  # world frame, a view into the data
+        rows = out[:k]
+        np.dot(n.T, jac[:3], out=rows)
+        rows += x.T.dot(jac[3:])
+        rows *= self._support[index]
 
     # -------------------------------------------------------------------------- padding
     def set_padding(self, links: Iterable[str], radius: float) -> None:

@@ -168,6 +168,38 @@ class Vehicle(StrictModel):
     workspace: VehicleWorkspace = VehicleWorkspace()
 
 
+class CollisionAvoidance(StrictModel):
+    """Self-collision avoidance in the whole-body QP (velocity dampers, docs/collision.md).
+
+    Every checked pair of ``collision.yaml`` closer than ``influence`` (d_i) gets a row
+    ``d' >= -damping * (d - security) / (influence - security)``: it may approach at most at
+    ``damping`` [m/s] at d_i, slower and slower down to 0 at ``security`` (d_s).
+    """
+
+    #: Rows in the QP (False: no collision rows at all).
+    enabled: bool = True
+    #: Influence distance d_i [m]: pairs closer than this get a row.
+    influence: float = Field(default=0.05, gt=0.0, le=0.5)
+    #: Security distance d_s [m]: pairs never come closer (below: "no further closer").
+    security: float = Field(default=0.005, ge=0.0)
+    #: Damper gain ξ [m/s]: the approach speed allowed at d_i (lowered per pair so the
+    #: damper never asks for more deceleration than the joints can give, see the docs).
+    damping: float = Field(default=0.3, gt=0.0, le=5.0)
+    #: Look-ahead [s]: a pair closing in faster than (d − d_i) / lookahead gets its row
+    #: before d_i, early enough to brake (its allowance then starts at its approach speed).
+    lookahead: float = Field(default=0.25, ge=0.0, le=2.0)
+    #: Most rows per cycle (the most urgent pairs in range); the QP keeps this many rows.
+    max_rows: int = Field(default=16, ge=1, le=200)
+
+    @model_validator(mode="after")
+    def _check_order(self) -> CollisionAvoidance:
+        if not self.security < self.influence:
+            raise ValueError(
+                f"security ({self.security}) must be below influence ({self.influence})"
+            )
+        return self
+
+
 class RobotProfile(StrictModel):
     """Everything imotion needs to know about a robot beyond its kinematic tree."""
 
@@ -191,6 +223,8 @@ class RobotProfile(StrictModel):
     vehicle: Vehicle | None = None
     #: JARA_ARM initial speed ratio (setSpeedCartesian / setSpeedJoint) [%].
     speed_ratio: Annotated[int, Field(ge=1, le=100)] = 50
+    #: Self-collision rows of the QP (distances in [m], damping in [m/s]).
+    collision_avoidance: CollisionAvoidance = CollisionAvoidance()
 
 
 def _cross_check(p: RobotProfile, model: ModelSource) -> list[str]:

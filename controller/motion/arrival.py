@@ -15,7 +15,7 @@ import numpy as np
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
-from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
+from controller.qp.tasks import ROTATION_SCALE, AxisTask, ControlPointTask, PostureTask, Task
 
 #: Control point: position [m] and orientation [rad].
 POSITION_TOL = 2e-4
@@ -76,3 +76,25 @@ def off_target(kin: Kinematics, tasks: list[Task]) -> str | None:
                 shown = f"{math.degrees(off):.3f} deg" if revolute else f"{off * 1e3:.2f} mm"
                 return f"{name} {shown} from its target"
     return None
+
+
+def tracking_error(kin: Kinematics, tasks: list[Task]) -> float:
+    """The largest distance [m] between a task's target and the measured state at ``kin``'s
+    last update: control points as position plus ``ROTATION_SCALE`` × angle, angular axes and
+    joints as ``ROTATION_SCALE`` × angle (regularisation tasks and faded elbows left out)."""
+    worst = 0.0
+    for task in tasks:
+        if isinstance(task, ControlPointTask):
+            err = task.error(kin)
+            off = float(np.linalg.norm(err[:3])) + ROTATION_SCALE * float(np.linalg.norm(err[3:]))
+        elif isinstance(task, AxisTask):
+            if task.axis.is_elbow and task.weight[0] < ELBOW_WEIGHT_SHARE * task.base_weight:
+                continue
+            off = abs(task.error(kin)) * (1.0 if task.axis in _LINEAR else ROTATION_SCALE)
+        elif isinstance(task, PostureTask) and task.level >= 1 and len(task.joints):
+            gap = np.abs(task.reference[task.joints] - kin.q[task.joints])
+            off = ROTATION_SCALE * float(gap.max())
+        else:
+            continue
+        worst = max(worst, off)
+    return worst

@@ -174,6 +174,12 @@ class WholeBodyIK:
         self.configure(self._setup.frozen)
 
     @property
+    def solves(self) -> bool:
+        """Whether :meth:`solve` runs a QP (some joint is free): else every joint is frozen
+        and no row constraint is evaluated."""
+        return self._layout.n > 0
+
+    @property
     def constraints(self) -> tuple[Constraint, ...]:
         """The row constraints, in registration order."""
         return tuple(self._constraints)

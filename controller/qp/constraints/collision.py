@@ -1,0 +1,241 @@
+"""Collision avoidance: velocity-damper rows on the distances of the checked pairs.
+
+For every row of a :class:`~controller.model.collision.CollisionDistances` (self-collision
+pairs, and whatever else it holds: static obstacles, held objects) closer than the influence
+distance ``d_i``, one row on the distance rate ``d' = J_d v`` [m/s]::
+
+    d' ≥ −s_k          s_k ≥ 0: the approach speed allowed to pair k this cycle [m/s]
+
+with, ``g = d − d_s`` the gap to the security distance and ``a_k`` the deceleration of the
+pair the joints can give (half of what the acceleration limits allow along ``J_d``,
+``a_k = BRAKING_SHARE·Σ_j |J_d,j|·a_max,j``: the other half is the tasks' headroom, as for
+the joints' braking distances):
+
+* **damper**: ``s_k = ξ_k·max(g, 0)/(d_i − d_s)``, with ``ξ_k = min(ξ, √(a_k·(d_i − d_s)))``:
+  the damper's own profile (an exponential approach, deceleration ``ξ_k²·g/(d_i − d_s)²``)
+  never asks more than ``a_k``;
+* **activation** (mc_rtc's rule, in speeds): a pair that comes into range approaching faster
+  than its damper allows is allowed its current approach speed ``-J_d·v_prev``: the row holds
+  for the velocity the robot has, never infeasible on entry;
+* **relaxation back**: afterwards the allowance may only shrink by ``a_k·dt`` per cycle (or to
+  the current approach speed, if slower), down to the damper's value: the rows never ask for
+  more deceleration than ``a_k``;
+* **below d_s**: the damper's value is 0, "no further closer" (after braking as above); the
+  rows never push a pair apart (``lo ≤ 0``), so an overlap is never resolved violently;
+* with the cycle's joint box, the rows never ask for more than one common velocity ``v*`` of
+  the box gives them: each joint moved from ``v_prev`` by ``a_max·dt`` in the direction the
+  rows asking for more than ``v_prev`` want (a single row gets its strongest braking). ``v*``
+  satisfies every row and the box, so they are never infeasible together, however many
+  pairs are in range.
+
+Both levels; relaxation "no further" (``lo ≤ 0`` always holds: the rows are never dropped).
+More pairs in range than ``max_rows``: the closest ones.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from controller.model.collision import CollisionDistances
+from controller.model.collision_pairs import collision_path, load_collision_pairs
+from controller.model.kinematics import Kinematics
+from controller.model.profile import CollisionAvoidance as Settings
+from controller.qp.constraints.braking import BRAKING_SHARE
+from controller.qp.constraints.protocol import (
+    INF,
+    ConstraintSetup,
+    CycleState,
+    Level,
+    Relaxation,
+    RowBlock,
+)
+
+#: The common velocity stays this share of the box inside it, and each row's bound this far
+#: [m/s] below what it gives: a feasible set that is only a corner defeats solvers.
+INTERIOR = 0.05
+BRAKE_MARGIN = 1e-6
+#: Rows whose pair can decelerate less than this [m/s²] (``Σ_j |J_d,j|·a_max,j``) are left
+#: free: the pair's distance does not depend on the (free) joints there.
+MIN_REACH = 1e-6
+#: A row binds when ``J_d v`` is within this [m/s] of its bound.
+BINDING_TOL = 1e-5
+
+
+class CollisionAvoidance:
+    """Velocity-damper rows of the pairs of ``distances`` within the influence distance.
+
+    ``distances`` must be updated once per cycle at the measured state, after the kinematics
+    (the motion core does it), before the IK step. ``settings``: the profile's values.
+    """
+
+    name = "collision avoidance"
+    levels = Level.BOTH
+    relaxation = Relaxation.NO_FURTHER
+    joints = None
+    holds_at_rest = True
+
+    def __init__(
+        self, kin: Kinematics, distances: CollisionDistances, settings: Settings, dt: float
+    ):
+        self.distances = distances
+        self.dt = dt
+        self.influence = settings.influence
+        self.security = settings.security
+        self.damping = settings.damping
+        self.lookahead = settings.lookahead
+        self.max_rows = min(settings.max_rows, len(distances))
+        #: The distances at the last call [m] (their change: the approach speeds).
+        self._d_last = np.full(len(distances), np.nan)
+        self._a_max_all = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
+        nv = len(self._a_max_all)
+        #: Scratch columns: (v_prev, ub + lb) and (a_max of the free joints, ub − lb).
+        self._vm = np.zeros((nv, 2))
+        self._ah = np.zeros((nv, 2))
+        self._ah[:, 0] = self._a_max_all
+        #: Approach speed allowed per pair at the last cycle [m/s] (INF: out of range).
+        self.allowed = np.full(len(distances), INF)
+        #: The pairs of this cycle's rows, in row order, and their lower bounds [m/s].
+        self.pairs = np.zeros(0, dtype=int)
+        self._rows_lo = np.zeros(self.max_rows)
+        #: The least ``J_d v / |J_d|`` the cycle's box allows, per row.
+        self._low = np.zeros(self.max_rows)
+        self._rows: RowBlock | None = None
+
+    @property
+    def span(self) -> float:
+        """``d_i − d_s`` [m]: the damper's range."""
+        return self.influence - self.security
+
+    def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
+        """Frozen joints give no deceleration."""
+        self._ah[:, 0] = np.where(setup.frozen, 0.0, self._a_max_all)
+
+    def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
+        self._rows = rows
+        dist = self.distances
+        d = dist.distances
+        # Pairs in range: closer than d_i, or closing in fast enough to get there within
+        # the look-ahead (approach speed from the distances of the last call: every pair at
+        # the cost of one subtraction); the most urgent first.
+        closing = np.subtract(self._d_last, d)
+        self._d_last[...] = d
+        np.fmax(closing, 0.0, out=closing)  # NaN (no last call): not closing
+        key = d - closing * (self.lookahead / self.dt)
+        near = np.flatnonzero(key < self.influence)
+        if len(near) > self.max_rows:
+            near = near[np.argpartition(key[near], self.max_rows - 1)[: self.max_rows]]
+        k = len(near)
+        if not k:
+            self.allowed[self.pairs] = INF
+            self.pairs = near
+            return 0
+        C, lo, hi = rows.C[:k], rows.lo[:k], rows.hi[:k]
+        dist.jacobian_into(near, C)
+        span, dt = self.span, self.dt
+        # Two products per row give what the rows need: with mid = (ub + lb)/2 and
+        # half = (ub − lb)/2, J_d v over the box spans J_d·mid ± |J_d|·half.
+        vm, ah = self._vm, self._ah
+        v_prev, lb, ub = cycle.v_prev, cycle.lb, cycle.ub
+        vm[:, 0] = v_prev
+        if lb is not None and ub is not None:
+            np.add(ub, lb, out=vm[:, 1])
+            np.subtract(ub, lb, out=ah[:, 1])
+        else:
+            vm[:, 1] = 0.0
+            ah[:, 1] = INF
+        signed = C.dot(vm)  # (k, 2): d' at v_prev, 2 J_d·mid
+        spread = np.abs(C).dot(ah)  # (k, 2): most deceleration [m/s²], 2 |J_d|·half
+        reach = spread[:, 0]
+        a = BRAKING_SHARE * reach
+        xi = np.sqrt(a * span)
+        np.minimum(xi, self.damping, out=xi)
+        gap = d[near] - self.security
+        np.maximum(gap, 0.0, out=gap)
+        damper = np.minimum(gap, span)
+        damper *= xi / span  # ξ_k·g/(d_i − d_s), ξ_k beyond d_i
+        approach = np.negative(signed[:, 0])  # current approach speed [m/s]
+        prev = self.allowed[near]  # INF: the pair has just come into range
+        speed = np.minimum(prev, approach)
+        # Slow down at a, or faster (up to all the joints can) when a cannot stop the pair
+        # by d_s any more: at the deceleration that stops it there, s²/(2g).
+        need = speed * speed / (2.0 * gap + 1e-12)
+        rate = np.maximum(need, a)  # (np.clip costs several times more)
+        np.minimum(rate, reach, out=rate)
+        rate *= dt
+        # On entry (prev = INF) the current approach speed: satisfied as it is.
+        allowed = np.minimum(prev - rate, approach)
+        np.maximum(allowed, damper, out=allowed)
+        self.allowed[self.pairs] = INF  # pairs that left the range start afresh
+        self.pairs = near
+        self.allowed[near] = allowed
+        np.negative(allowed, out=lo)
+        if lb is not None and ub is not None:
+            self._common(C, lo, signed[:, 0], reach, v_prev, lb, ub)
+        low = signed[:, 1] - spread[:, 1]
+        # A pair whose distance hardly depends on the joints (|J_d| ~ 0) gets a free row.
+        lo[reach < MIN_REACH] = -INF
+        hi[...] = INF
+        low *= 0.5
+        self._low[:k] = low
+        self._rows_lo[:k] = lo  # before the IK shifts them (frozen joints' share)
+        return k
+
+    def _common(
+        self,
+        C: np.ndarray,
+        lo: np.ndarray,
+        now: np.ndarray,
+        reach: np.ndarray,
+        v_prev: np.ndarray,
+        lb: np.ndarray,
+        ub: np.ndarray,
+    ) -> None:
+        """Lower ``lo`` to what one velocity in the box gives every row: ``v*``, each joint
+        accelerated at its limit in the direction the rows short of ``v_prev`` want (their
+        shortfalls weighted by 1/reach). One row alone gets its best braking; rows that
+        disagree get what a common velocity gives: rows and box are never infeasible."""
+        short = lo - now  # what each row asks beyond v_prev [m/s]
+        np.maximum(short, 0.0, out=short)
+        short /= np.maximum(reach, MIN_REACH)
+        direction = np.sign(C.T.dot(short))
+        direction *= self._ah[:, 0]
+        direction *= (1.0 - INTERIOR) * self.dt
+        direction += v_prev
+        # Inside the box (a corner of the box and the rows is what solvers miss numerically).
+        inset = INTERIOR * (ub - lb)
+        np.maximum(direction, lb + inset, out=direction)
+        np.minimum(direction, ub - inset, out=direction)
+        cap = C.dot(direction)
+        cap -= BRAKE_MARGIN
+        np.minimum(lo, cap, out=lo)
+
+    def binding(self, v: np.ndarray, within: float = INF) -> int:
+        """The pair (index into ``distances``) whose row ``v`` [rad/s, m/s] meets at its
+        bound, among those closer than ``within`` [m], the closest such pair; -1 when none.
+        A row that allows all the joint box allows (the joints it involves are frozen or
+        braking anyway) holds nothing back: it never binds."""
+        k = len(self.pairs)
+        if not k or self._rows is None:
+            return -1
+        lo = self._rows_lo[:k]
+        slack = self._rows.C[:k].dot(v) - lo
+        close = self.distances.distances[self.pairs] < within
+        restricts = lo > self._low[:k] + BINDING_TOL
+        tight = np.flatnonzero((slack < BINDING_TOL) & restricts & close)
+        if not len(tight):
+            return -1
+        pairs = self.pairs[tight]
+        return int(pairs[np.argmin(self.distances.distances[pairs])])
+
+
+def collision_avoidance(kin: Kinematics, dt: float) -> CollisionAvoidance | None:
+    """The robot's constraint on its checked pairs (``collision.yaml``) with its profile's
+    settings; None when the profile disables it or the robot has no checked pair."""
+    settings = kin.robot.profile.collision_avoidance
+    if not settings.enabled:
+        return None
+    pairs = load_collision_pairs(collision_path(kin.robot)).checked
+    distances = CollisionDistances(kin.model, kin.robot.model, pairs)
+    if not len(distances):
+        return None
+    return CollisionAvoidance(kin, distances, settings, dt)
