@@ -87,3 +87,36 @@ def test_an_elbow_swing_away_from_the_body_is_not_blocked() -> None:
     core, _, _, elbow = cp_hold_elbow("smartpal5", "ideal", -60.0)
     assert core.state == CoreState.READY and not core.alarms
     assert abs(float(elbow[-1]) + 60.0) < 0.1
+
+
+def test_a_vehicle_driven_at_a_static_obstacle_stops_short_of_it_and_names_it() -> None:
+    """Obstacles of the daemon configuration reach the control loop's rows (MotionCore's
+    ``obstacles``): the vehicle driven 0.6 m forward towards a wall 0.45 m ahead of the
+    body stops short of it with one MOTION_BLOCKED warning naming the wall."""
+    from controller.control.core import MotionCore
+    from controller.model.obstacles import Obstacle
+    from controller.motion.motions import VehicleMotion
+    from hal.ideal_backend import IdealBackend
+    from tests.support import robot
+
+    wall = Obstacle(name="wall", type="plane", pos=[0.45, 0.0, 0.0], rpy=[0.0, -math.pi / 2, 0.0])
+    r = robot("smartpal5")
+    core = MotionCore(r, IdealBackend(r, DT), DT, obstacles=[wall])
+    core.servo_on()
+    core.cycle()
+    assert core.collision is not None
+    assert any(b == "obstacle:wall" for _, b in core.collision.distances.pair_links)
+    start = core.kin.vehicle_pose()
+    motion = VehicleMotion(core.kin, DT, start + np.array([0.6, 0.0, 0.0]), (0.2, 0.5), (0.4, 1.0))
+    core.start(motion)
+    closest = math.inf
+    for _ in range(20_000):
+        if core.motion is None:
+            break
+        core.cycle()
+        closest = min(closest, float(core.collision.distances.distances.min()))
+    assert core.motion is None and core.state == CoreState.READY
+    (alarm,) = core.alarms
+    assert alarm.code == AlarmCode.MOTION_BLOCKED and "obstacle:wall" in alarm.description
+    assert core.kin.vehicle_pose()[0] - start[0] < 0.6 - 0.05  # well short of the target
+    assert closest >= r.profile.collision_avoidance.security - 1e-3

@@ -54,9 +54,14 @@ def test_quick_session_runs_and_writes_its_outputs(tmp_path: Path) -> None:
     # the move into the body is refused before anything moves, naming the two links
     refused = figures["refused_move"]
     assert refused["code"] == "CANNOT_REACH_TARGET_ERR", refused
-    assert "of lumbar_upper_link (security distance" in refused["comment"]
+    assert "of lumbar_upper_link (closest allowed" in refused["comment"]
     assert figures["refused_move_hand_moved_mm"] < 0.01
-    assert figures["cp_hold_into_body"]["held_hand_moved_mm"] < 1.0  # refused or stopped short
+    # the CP-hold into the body runs and stops short of it, saying which links
+    into_body = figures["cp_hold_into_body"]
+    assert into_body["code"] == "OK" and into_body["outcome"] == "ran; state Ready", into_body
+    (blocked,) = [w for w in into_body["alarms"] if w.startswith("0x414")]
+    assert "lumbar_upper_link" in blocked and "r_arm_link" in blocked, blocked
+    assert into_body["held_hand_moved_mm"] < 1.0
     assert (tmp_path / "joints.png").stat().st_size > 10_000
     assert (tmp_path / "session.mcap").stat().st_size > 1000
     assert (tmp_path / "session-joints.png").stat().st_size > 10_000

@@ -492,9 +492,9 @@ def run_script(s: Session, quick: bool) -> dict[str, Any]:
 
 def collision_steps(s: Session) -> dict[str, Any]:
     """7. A move into the body, refused before anything moves (the comment names the two
-    links); 8. a CP-hold swinging the elbow into the body (issue 10). Step 8 is reported,
-    not required: the gateway refuses it when its dry run comes within the security
-    distance, the control loop's collision rows stop it short of the body otherwise."""
+    links); 8. the hand 150 mm inwards, then a CP-hold swinging the elbow into the body:
+    accepted, the control loop's collision rows stop it short of the body with a
+    MOTION_BLOCKED warning naming the links (issue 10)."""
     a = s.a
     figures: dict[str, Any] = {}
     p = s.begin("7. right hand 200 mm towards the body (PTP): refused, nothing moves")
@@ -515,28 +515,43 @@ def collision_steps(s: Session) -> dict[str, Any]:
     figures["refused_move_hand_moved_mm"] = round(moved, 3)
     s.end(p)
 
-    p = s.begin("8. elbow swing +60 deg into the body, right hand held (CP-hold)")
+    inward = pb.MoveLinearCartesianRelRequest(
+        type=RIGHT,
+        frame_type=pb.BASE_FRAME,
+        rel_hg_mat=hg(dy=150.0),
+        speed=pb.CartesianSpeed(translation=100.0, rotation=30.0),
+        accel=pb.CartesianAccel(translation=200.0, rotation=60.0),
+        is_hold_other_arm=False,
+    )
+    s.motion("moveLinearCartesianRel(RIGHT, y +150 mm)", a.MoveLinearCartesianRel, inward)
+    p = s.begin("8. elbow swing +12 deg into the body, right hand held (CP-hold)")
     held = s.pose(RIGHT)
     reply = s.call(
-        "moveCPHoldRel(RIGHT, elbow +60 deg)",
+        "moveCPHoldRel(RIGHT, elbow +12 deg)",
         a.MoveCPHoldRel,
-        cp_hold_rel(RIGHT, elbow=60.0),
+        cp_hold_rel(RIGHT, elbow=12.0),
         refusal=True,
     )
     rid = reply.return_id
-    outcome = "refused before moving"
+    outcome, warnings = "refused before moving", []
     if rid.id == 0:
         s.wait_started()
         s.wait_idle()
         state = s.a.GetState(pb.GetStateRequest())
         outcome = f"ran; state {STATES.get(state.status_id, state.status_id)}"
-        s.call("getActiveAlarm", a.GetActiveAlarm, pb.GetActiveAlarmRequest(), refusal=True)
+        alarms = s.call(
+            "getActiveAlarm", a.GetActiveAlarm, pb.GetActiveAlarmRequest(), refusal=True
+        ).alarms
+        warnings = [f"0x{al.code:03X} {al.description}" for al in alarms]
+        for w in warnings:
+            log(f"  alarm {w}")
     drift = 1e3 * float(np.linalg.norm(s.pose(RIGHT)[:3, 3] - held[:3, 3]))
     log(f"  {outcome}: {rid.comment or '(no comment)'}; held hand moved {drift:.3f} mm")
     figures["cp_hold_into_body"] = {
         "code": CODES.get(rid.id, str(rid.id)),
         "comment": rid.comment,
         "outcome": outcome,
+        "alarms": warnings,
         "held_hand_moved_mm": round(drift, 3),
     }
     s.end(p)

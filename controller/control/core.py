@@ -18,6 +18,7 @@ Faults (hardware faults, a failed QP, a failed time law) drop the motion, hold p
 from __future__ import annotations
 
 import threading
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -25,6 +26,7 @@ from controller.control.blocked import BlockWatch
 from controller.errors import StateError
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.model.kinematics import Kinematics
+from controller.model.obstacles import Obstacle
 from controller.model.robot import Robot
 from controller.motion.arrival import hold_posture, off_target
 from controller.motion.motions import IKSetup, Motion
@@ -80,8 +82,15 @@ class MotionCore:
     """Owns the kinematics, the IK and the current motion of one robot on one hardware."""
 
     def __init__(
-        self, robot: Robot, hardware: HardwareInterface, dt: float, solver: str = DEFAULT_SOLVER
+        self,
+        robot: Robot,
+        hardware: HardwareInterface,
+        dt: float,
+        solver: str = DEFAULT_SOLVER,
+        obstacles: Sequence[Obstacle] = (),
     ):
+        """``obstacles``: static obstacles (the daemon configuration's ``obstacles``) the
+        collision rows keep the robot away from, like its own bodies."""
         self.robot = robot
         self.hw = hardware
         self.dt = dt
@@ -90,7 +99,7 @@ class MotionCore:
         self.ik = WholeBodyIK(self.kin, dt, solver)
         #: The collision rows (None: disabled in the profile); their distances are updated
         #: once per cycle, after the kinematics, when the IK solves.
-        self.collision = collision_avoidance(self.kin, dt)
+        self.collision = collision_avoidance(self.kin, dt, obstacles)
         if self.collision is not None:
             self.ik.add(self.collision)
         self._block_watch = BlockWatch()

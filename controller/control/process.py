@@ -22,7 +22,7 @@ import logging
 import queue
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +39,7 @@ from controller.control.publisher import SnapshotPublisher
 from controller.control.soft_limits import CartesianSoftLimits
 from controller.errors import ImotionError, Refused
 from controller.model.alarms import AlarmCode
+from controller.model.obstacles import Obstacle
 from controller.model.robot import Robot
 from controller.motion.motions import Motion
 from controller.vocabulary import CoreState, ReturnCode
@@ -71,11 +72,12 @@ class Controller(Commands):
         snapshot_path: Path,
         queue_depth: int = 8,
         solver: str = "daqp",
+        obstacles: Sequence[Obstacle] = (),
     ):
         self.robot = robot
         self.hw = hardware
         self.dt = 1.0 / rate_hz
-        self.core = MotionCore(robot, hardware, self.dt, solver)
+        self.core = MotionCore(robot, hardware, self.dt, solver, obstacles)
         # Statistics over the last second: cheap enough to summarise from the loop thread.
         self.loop = FixedRateLoop(
             rate_hz, self._step, realtime=False, stats_capacity=max(1, round(rate_hz))

@@ -123,6 +123,7 @@ class Daemon:
             self.runtime / SNAPSHOT_NAME,
             cfg.queue_depth,
             cfg.loop.solver,
+            cfg.obstacles,
         )
         self.controller.stop_timeout = cfg.stop_timeout_s
         if cfg.blackbox.dir is not None:

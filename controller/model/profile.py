@@ -190,6 +190,15 @@ class CollisionAvoidance(StrictModel):
     lookahead: float = Field(default=0.25, ge=0.0, le=2.0)
     #: Most rows per cycle (the most urgent pairs in range); the QP keeps this many rows.
     max_rows: int = Field(default=16, ge=1, le=200)
+    #: Planning margin [m]: a Cartesian move whose path would come closer than
+    #: ``security + plan_margin`` is refused before it starts, so that an accepted move is
+    #: not slowed to a stop by the rows near d_s (docs/collision.md).
+    plan_margin: float = Field(default=0.015, ge=0.0, le=0.2)
+
+    @property
+    def planning_distance(self) -> float:
+        """Closest distance [m] a planned Cartesian path may bring two bodies to."""
+        return self.security + self.plan_margin
 
     @model_validator(mode="after")
     def _check_order(self) -> CollisionAvoidance:

@@ -28,10 +28,6 @@ from controller.model.kinematics import Kinematics
 from controller.model.obstacles import Obstacle, is_obstacle
 from controller.model.obstacles import startup_origin as origin_at_zero
 
-#: Security distance d_s [m]: no two bodies (nor a body and an obstacle) closer than this.
-#: TODO(issue 10): read it from the robot profile (key ``collision.security_distance``, added
-#: by the velocity-damper branch) when the branches are merged.
-SECURITY_DISTANCE = 0.02
 #: A pair closer than d_s at the start may get this much closer before a move is refused
 #: (the IK's rounding along a path) [m].
 START_SLACK = 1e-3
@@ -53,11 +49,22 @@ class ClearanceCheck:
         self,
         kin: Kinematics,
         obstacles: Sequence[Obstacle] = (),
-        security_distance: float = SECURITY_DISTANCE,
+        security_distance: float | None = None,
     ):
+        """``security_distance``: the closest a path may bring two bodies [m] (None: the
+        profile's ``collision_avoidance``: security distance d_s + planning margin)."""
         robot = kin.robot
         pairs = load_collision_pairs(collision_path(robot)).checked
+        settings = robot.profile.collision_avoidance
+        if security_distance is None:
+            security_distance = settings.planning_distance
         self.security_distance = security_distance
+        #: How the comment explains the distance.
+        self._why = (
+            f"closest allowed {1e3 * security_distance:.0f} mm: security distance "
+            f"{1e3 * settings.security:.0f} mm + planning margin "
+            f"{1e3 * (security_distance - settings.security):.0f} mm"
+        )
         self.distances = CollisionDistances(
             kin.model, robot.model, pairs, obstacles=obstacles, origin=startup_origin(kin)
         )
@@ -100,10 +107,7 @@ class ClearanceCheck:
             a, b = b, a  # the link further down the tree (it moves more) first
         d = float(self.distances.distances[k])
         how = f"within {1e3 * d:.1f} mm of" if d >= 0.0 else f"{-1e3 * d:.1f} mm into"
-        return (
-            f"{what} would bring {a} {how} {b} (security distance "
-            f"{1e3 * self.security_distance:.0f} mm) {at}"
-        )
+        return f"{what} would bring {a} {how} {b} ({self._why}) {at}"
 
     def sampled_path_problem(self, s: Sequence[float], qs: Sequence[np.ndarray]) -> str | None:
         """:meth:`path_problem` for samples of a Cartesian path at parameters ``s`` (0..1)."""
@@ -135,4 +139,4 @@ def combine(
     return grid, out
 
 
-__all__ = ["SECURITY_DISTANCE", "ClearanceCheck", "combine", "startup_origin"]
+__all__ = ["ClearanceCheck", "combine", "startup_origin"]

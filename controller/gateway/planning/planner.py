@@ -357,7 +357,9 @@ class Planner:
                 self._dry_ik = WholeBodyIK(kin, DRY_RUN_DT)
             ik = self._dry_ik
             ik.box.q_min, ik.box.q_max = self.checker.q_min.copy(), self.checker.q_max.copy()
-            return dry_run(kin, ik, spec, q0, max_time, commanded, self.clearance)
+            # No clearance here: a CP-hold into a body or an obstacle is not refused; the
+            # collision rows stop it on its path and say so (MOTION_BLOCKED, issue 10).
+            return dry_run(kin, ik, spec, q0, max_time, commanded)
 
     def cp_hold(
         self,

@@ -34,11 +34,14 @@ More pairs in range than ``max_rows``: the closest ones.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from controller.model.collision import CollisionDistances
 from controller.model.collision_pairs import collision_path, load_collision_pairs
 from controller.model.kinematics import Kinematics
+from controller.model.obstacles import Obstacle, startup_origin
 from controller.model.profile import CollisionAvoidance as Settings
 from controller.qp.constraints.braking import BRAKING_SHARE
 from controller.qp.constraints.protocol import (
@@ -228,14 +231,20 @@ class CollisionAvoidance:
         return int(pairs[np.argmin(self.distances.distances[pairs])])
 
 
-def collision_avoidance(kin: Kinematics, dt: float) -> CollisionAvoidance | None:
-    """The robot's constraint on its checked pairs (``collision.yaml``) with its profile's
-    settings; None when the profile disables it or the robot has no checked pair."""
+def collision_avoidance(
+    kin: Kinematics, dt: float, obstacles: Sequence[Obstacle] = ()
+) -> CollisionAvoidance | None:
+    """The robot's constraint on its checked pairs (``collision.yaml``) and the static
+    ``obstacles`` of the daemon configuration (placed in the original frame of start-up),
+    with its profile's settings; None when the profile disables it or there is no pair."""
     settings = kin.robot.profile.collision_avoidance
     if not settings.enabled:
         return None
     pairs = load_collision_pairs(collision_path(kin.robot)).checked
-    distances = CollisionDistances(kin.model, kin.robot.model, pairs)
+    origin = startup_origin(kin.model, kin.robot.profile.body_frame)
+    distances = CollisionDistances(
+        kin.model, kin.robot.model, pairs, obstacles=obstacles, origin=origin
+    )
     if not len(distances):
         return None
     return CollisionAvoidance(kin, distances, settings, dt)
