@@ -48,6 +48,12 @@ def client_orb() -> Any:
     return _orb
 
 
+#: "Nothing moved" [deg, mm]: a robot at rest in the simulation still shifts by ~1e-5 deg
+#: between two reads (servo holding against gravity), and a motion started by a refused
+#: command would move far more than this within a cycle or two of its start.
+NOTHING_MOVED = 1e-3
+
+
 class CorbaDaemon:
     """``python -m controller.daemon.main`` with CORBA on, its IORs and both kinds of
     client."""

@@ -17,7 +17,7 @@ from controller.corba.stubs import JARA_ARM_DUAL as D
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode
 from controller.vocabulary import SpecAState as S
-from tests.corba_support import CorbaDaemon
+from tests.corba_support import NOTHING_MOVED, CorbaDaemon
 
 NAN = math.nan
 
@@ -140,4 +140,4 @@ def test_bad_input_is_value_err_and_nothing_moves(
     assert reply.id == ReturnCode.VALUE_ERR, reply.comment
     assert reply.comment.startswith(names), reply.comment
     assert not d.moving()
-    np.testing.assert_allclose(d.joints(), before, atol=1e-6)
+    np.testing.assert_allclose(d.joints(), before, atol=NOTHING_MOVED)

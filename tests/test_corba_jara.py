@@ -17,7 +17,7 @@ pytest.importorskip("omniORB")
 from controller.corba.stubs import JARA_ARM, JARA_ARM_LEFT
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import JaraState, ReturnCode
-from tests.corba_support import CorbaDaemon
+from tests.corba_support import NOTHING_MOVED, CorbaDaemon
 
 NAN, INF = math.nan, math.inf
 ARMS = {
@@ -319,4 +319,4 @@ def test_bad_input_is_value_err_and_nothing_moves(
     assert code == ReturnCode.VALUE_ERR, comment
     assert comment.startswith(names), comment
     assert not ok(a.c.getState())[1] & JaraState.MOVING
-    np.testing.assert_allclose(a.d.joints(), before, atol=1e-6)
+    np.testing.assert_allclose(a.d.joints(), before, atol=NOTHING_MOVED)

@@ -20,7 +20,7 @@ from controller.corba.stubs import _GlobalIDL as A
 from controller.rpc import imotion_pb2 as pb
 from controller.vocabulary import ReturnCode
 from controller.vocabulary import SpecAState as S
-from tests.corba_support import CorbaDaemon
+from tests.corba_support import NOTHING_MOVED, CorbaDaemon
 
 NAN, INF = math.nan, math.inf
 ARM_SPEED, ARM_ACCEL = [30.0], [100.0]
@@ -319,7 +319,7 @@ def test_bad_input_is_value_err_and_nothing_moves(
     assert code == ReturnCode.VALUE_ERR, comment
     assert comment.startswith(names), comment
     assert s.isMoving() is False
-    np.testing.assert_allclose(d.joints(), before, atol=1e-6)
+    np.testing.assert_allclose(d.joints(), before, atol=NOTHING_MOVED)
     assert ok(s.getState())[1] == S.READY  # the daemon is up and unchanged
 
 
