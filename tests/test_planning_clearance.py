@@ -12,12 +12,12 @@ import pytest
 
 from controller.contract.config import load_config
 from controller.errors import Refused
-from controller.gateway.planning.clearance import ClearanceCheck, combine, startup_origin
+from controller.gateway.planning.clearance import ClearanceCheck, combine
 from controller.gateway.services.jara_arm import JaraArmService, car_pos
 from controller.gateway.services.jara_dual import JaraDualService
 from controller.gateway.services.spec_a import SpecAService
 from controller.model.kinematics import Kinematics
-from controller.model.obstacles import Obstacle
+from controller.model.obstacles import Obstacle, startup_origin
 from controller.vocabulary import ReturnCode, RightLeft
 from tests.planning_support import context, robot
 
@@ -198,7 +198,8 @@ def test_obstacles_are_placed_in_the_original_frame_at_start_up() -> None:
     kin = Kinematics(robot("smartpal5"))
     kin.update(kin.home())
     kin.reset_original_frame()  # later re-sets do not move obstacles
-    np.testing.assert_allclose(startup_origin(kin).translation, [0, 0, 0.4365], atol=1e-12)
+    origin = startup_origin(kin.model, kin.robot.profile.body_frame)
+    np.testing.assert_allclose(origin.translation, [0, 0, 0.4365], atol=1e-12)
 
 
 # ------------------------------------------------------------------- docs/collision.md

@@ -31,7 +31,9 @@ from pydantic import Field
 
 from controller.model.collision import CollisionDistances
 from controller.model.collision_shapes import collision_shapes
+from controller.model.kinematics import Kinematics
 from controller.model.model_source import ModelSource, StrictModel
+from controller.model.obstacles import Obstacle, startup_origin
 from controller.model.robot import Robot
 from controller.model.yaml_source import load_yaml_model
 
@@ -65,6 +67,21 @@ def load_collision_pairs(path: Path) -> CollisionPairs:
 
 def collision_path(robot: Robot) -> Path:
     return robot.directory / "collision.yaml"
+
+
+def robot_distances(kin: Kinematics, obstacles: Sequence[Obstacle] = ()) -> CollisionDistances:
+    """Distances of the robot's checked pairs (``collision.yaml``) and of every moving link
+    to the static ``obstacles`` (the daemon configuration's, placed in the original frame
+    of start-up), on ``kin``'s model: what the control loop's rows and the planner's
+    clearance check both compute."""
+    robot = kin.robot
+    return CollisionDistances(
+        kin.model,
+        robot.model,
+        load_collision_pairs(collision_path(robot)).checked,
+        obstacles=obstacles,
+        origin=startup_origin(kin.model, robot.profile.body_frame),
+    )
 
 
 @dataclass(frozen=True)

@@ -20,24 +20,16 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import pinocchio as pin
 
-from controller.model.collision import CollisionDistances
-from controller.model.collision_pairs import collision_path, load_collision_pairs
+from controller.model.collision_pairs import robot_distances
 from controller.model.kinematics import Kinematics
 from controller.model.obstacles import Obstacle, is_obstacle
-from controller.model.obstacles import startup_origin as origin_at_zero
 
 #: A pair closer than d_s at the start may get this much closer before a move is refused
 #: (the IK's rounding along a path) [m].
 START_SLACK = 1e-3
 #: Largest joint step between two checked configurations of a joint-space line [rad or m].
 JOINT_STEP = 0.01
-
-
-def startup_origin(kin: Kinematics) -> pin.SE3:
-    """The original frame as set at start-up (where static obstacles are given)."""
-    return origin_at_zero(kin.model, kin.robot.profile.body_frame)
 
 
 class ClearanceCheck:
@@ -53,9 +45,7 @@ class ClearanceCheck:
     ):
         """``security_distance``: the closest a path may bring two bodies [m] (None: the
         profile's ``collision_avoidance``: security distance d_s + planning margin)."""
-        robot = kin.robot
-        pairs = load_collision_pairs(collision_path(robot)).checked
-        settings = robot.profile.collision_avoidance
+        settings = kin.robot.profile.collision_avoidance
         if security_distance is None:
             security_distance = settings.planning_distance
         self.security_distance = security_distance
@@ -65,9 +55,7 @@ class ClearanceCheck:
             f"{1e3 * settings.security:.0f} mm + planning margin "
             f"{1e3 * (security_distance - settings.security):.0f} mm"
         )
-        self.distances = CollisionDistances(
-            kin.model, robot.model, pairs, obstacles=obstacles, origin=startup_origin(kin)
-        )
+        self.distances = robot_distances(kin, obstacles)
         self._floor = np.full(len(self.distances), security_distance)
 
     def start(self, q0: np.ndarray) -> None:
@@ -139,4 +127,4 @@ def combine(
     return grid, out
 
 
-__all__ = ["ClearanceCheck", "combine", "startup_origin"]
+__all__ = ["ClearanceCheck", "combine"]

@@ -39,9 +39,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from controller.model.collision import CollisionDistances
-from controller.model.collision_pairs import collision_path, load_collision_pairs
+from controller.model.collision_pairs import robot_distances
 from controller.model.kinematics import Kinematics
-from controller.model.obstacles import Obstacle, startup_origin
+from controller.model.obstacles import Obstacle
 from controller.model.profile import CollisionAvoidance as Settings
 from controller.qp.constraints.braking import BRAKING_SHARE
 from controller.qp.constraints.protocol import (
@@ -240,11 +240,7 @@ def collision_avoidance(
     settings = kin.robot.profile.collision_avoidance
     if not settings.enabled:
         return None
-    pairs = load_collision_pairs(collision_path(kin.robot)).checked
-    origin = startup_origin(kin.model, kin.robot.profile.body_frame)
-    distances = CollisionDistances(
-        kin.model, kin.robot.model, pairs, obstacles=obstacles, origin=origin
-    )
+    distances = robot_distances(kin, obstacles)
     if not len(distances):
         return None
     return CollisionAvoidance(kin, distances, settings, dt)
