@@ -27,3 +27,14 @@ def corba_daemon() -> Iterator[Any]:
         yield daemon
     finally:
         daemon.close()
+
+
+@pytest.fixture(params=["compiled", "coal"])
+def collision_backend(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Run a test with the collision distances of the compiled kernels and again with coal
+    alone (``IMOTION_JIT=0``, the fallback where numba is missing)."""
+    if request.param == "coal":
+        monkeypatch.setenv("IMOTION_JIT", "0")
+    else:
+        monkeypatch.delenv("IMOTION_JIT", raising=False)
+    return str(request.param)

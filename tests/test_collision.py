@@ -18,6 +18,9 @@ from controller.model.model_source import ModelSource
 from controller.model.profile import RobotProfile
 from controller.model.robot import load_robot
 
+#: Every test with the compiled kernels and with coal alone.
+pytestmark = pytest.mark.usefixtures("collision_backend")
+
 ROBOTS = robot_ids()
 #: Central-difference step [rad or m] and the agreement asked of the analytic rows: with a
 #: GJK tolerance of 1e-12 m the distances are smooth to ~1e-12, so the difference quotient's
@@ -128,7 +131,7 @@ def test_update_from_kinematics_equals_compute(robot_id: str) -> None:
     dist.compute(q)
     own, own_jac = dist.distances.copy(), dist.jacobian()
     k.update(q)
-    dist.update(k.data)
+    dist.update(k.data, k.q)
     np.testing.assert_allclose(dist.distances, own, atol=1e-12)
     np.testing.assert_allclose(dist.jacobian(), own_jac, atol=1e-12)
     rows = [0, len(dist) - 1]

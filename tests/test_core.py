@@ -292,10 +292,11 @@ def test_collision_distances_are_updated_once_per_cycle_while_the_ik_solves():
     seen: list[np.ndarray] = []
     update = dist.update
 
-    def counted(data):
+    def counted(data, q):
         np.testing.assert_allclose(core.kin.q, core.q)  # the kinematics are this cycle's
+        np.testing.assert_array_equal(q, core.kin.q)
         seen.append(core.kin.q.copy())
-        update(data)
+        update(data, q)
 
     dist.update = counted  # type: ignore[method-assign]
     for _ in range(10):

@@ -20,6 +20,9 @@ from controller.vocabulary import RightLeft
 from tests.support import kinematics
 from tests.test_collision import toy
 
+#: Every test with the compiled kernels and with coal alone.
+pytestmark = pytest.mark.usefixtures("collision_backend")
+
 DT = 0.002
 #: d_i, d_s [m], ξ [m/s] of the toy; its one joint accelerates at A [m/s²].
 D_I, D_S, XI, A = 0.1, 0.01, 0.3, 2.0
@@ -182,7 +185,7 @@ def test_more_pairs_than_rows_keeps_the_closest() -> None:
     c.influence = 10.0  # every pair in range
     q = k.home()
     k.update(q)
-    c.distances.update(k.data)
+    c.distances.update(k.data, k.q)
     nv = k.nv
     rows = RowBlock(np.zeros((3, nv)), np.zeros(3), np.zeros(3))
     assert c.compute_qp_inequalities(CycleState(k, q, np.zeros(nv)), rows) == 3
@@ -216,7 +219,7 @@ def test_in_the_ik_a_hand_driven_into_the_other_stops_at_the_security_distance()
     bound = 0
     for _ in range(1500):
         k.update(q)
-        c.distances.update(k.data)
+        c.distances.update(k.data, k.q)
         closest = min(closest, float(c.distances.distances.min()))
         result = ik.solve(q, v)
         assert result.ok, result.message
@@ -235,7 +238,7 @@ def test_collision_rows_cost_nothing_without_pairs_in_range() -> None:
     c = collision_avoidance(k, DT)
     assert c is not None
     k.update(k.home())
-    c.distances.update(k.data)
+    c.distances.update(k.data, k.q)
     rows = RowBlock(np.zeros((c.max_rows, k.nv)), np.zeros(c.max_rows), np.zeros(c.max_rows))
     n = int(np.count_nonzero(c.distances.distances < c.influence))
     assert c.compute_qp_inequalities(CycleState(k, k.q, np.zeros(k.nv)), rows) == n
@@ -263,7 +266,7 @@ def test_rows_and_box_always_have_a_common_solution() -> None:
         v = rng.uniform(-v_max, v_max)
         lb, ub = box.compute_qp_bounds(q, v)
         k.update(q)
-        c.distances.update(k.data)
+        c.distances.update(k.data, k.q)
         n = c.compute_qp_inequalities(CycleState(k, q, v, lb, ub), rows)
         live = rows.lo[:n] > -INF
         asked += int(np.count_nonzero(rows.lo[:n][live] > rows.C[:n][live].dot(v)))

@@ -369,7 +369,7 @@ class MotionCore:
                     self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
                     return
             if self.collision is not None and self.ik.solves:
-                self.collision.distances.update(self.kin.data)
+                self.collision.distances.update(self.kin.data, self.kin.q)
             try:
                 result = self.ik.solve(self.q_cmd, self.v_cmd)
             except Exception as exc:  # a solver or numerical error is a failed solve

@@ -21,6 +21,8 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from controller.model import collision_kernel
+from controller.model.collision_kernel import CompiledPairs, Unsupported
 from controller.model.collision_shapes import CollisionShape, align_z, collision_shapes
 from controller.model.model_source import ModelSource
 from controller.model.obstacles import Obstacle, check_unique, is_obstacle
@@ -136,6 +138,7 @@ class CollisionDistances:
         self.pair_links: list[tuple[str, str]] = []
         #: (joint id of shape 1, joint id of shape 2) per pair.
         joints: list[tuple[int, int]] = []
+        shapes: list[tuple[int, int]] = []
         for a, b in link_pairs:
             for i in by_link.get(a, []):
                 for k in by_link.get(b, []):
@@ -143,13 +146,14 @@ class CollisionDistances:
                     self.pair_links.append((a, b))
                     objs = self.geometry.geometryObjects
                     joints.append((objs[i].parentJoint, objs[k].parentJoint))
+                    shapes.append((i, k))
         self._joint_array = np.array(joints, dtype=int).reshape(-1, 2)
         #: Per pair and side, 1.0 on the velocity columns of the joints that move the shape.
         support = self._support_masks(self._joint_array[:, 0])
         support -= self._support_masks(self._joint_array[:, 1])
         #: Per pair, +1 on the velocity columns moving shape 1 only, -1 on those moving
-        #: shape 2 only, 0 elsewhere (common ancestors move both alike).
-        self._support = support
+        #: shape 2 only, 0 elsewhere (common ancestors move both alike). Read-only.
+        self.support = support
         self.geometry_data = pin.GeometryData(self.geometry)
         for req in self.geometry_data.distanceRequests:
             req.enable_signed_distance = True
@@ -159,9 +163,29 @@ class CollisionDistances:
         #: Results of coal, one per pair (references into the geometry data: reading them
         #: through this list is several times faster than through ``distanceResults``).
         self._results = list(self.geometry_data.distanceResults)
+        count = len(self.pair_links)
         #: Signed distance of each pair [m] at the last update (negative: overlap).
-        self.distances = np.zeros(len(self.pair_links))
+        self.distances = np.zeros(count)
+        #: With the compiled kernels: per pair the unit normal from shape 2 to shape 1 and the
+        #: witness points on shape 1 and shape 2 (world [m]) at the last update.
+        self.normals = np.zeros((count, 3))
+        self.points1 = np.zeros((count, 3))
+        self.points2 = np.zeros((count, 3))
         self._data: pin.Data = self._own_data
+        #: The compiled kernels' model and work arrays (None: coal for every pair, see
+        #: :attr:`compiled`).
+        self.kernel: CompiledPairs | None = None
+        if collision_kernel.available():
+            try:
+                self.kernel = CompiledPairs(model, self.geometry, np.array(shapes))
+            except Unsupported:
+                self.kernel = None
+
+    @property
+    def compiled(self) -> bool:
+        """Whether the compiled kernels compute the pairs (numba installed and every joint
+        and shape one they handle; ``IMOTION_JIT=0`` turns them off), else coal does."""
+        return self.kernel is not None
 
     def _support_masks(self, joints: np.ndarray) -> np.ndarray:
         """``len(joints) x nv``: 1.0 where a velocity moves the joint's frame (0: the world)."""
@@ -179,25 +203,43 @@ class CollisionDistances:
     # ---------------------------------------------------------------------------- update
     def compute(self, q: np.ndarray) -> None:
         """Kinematics (own data), then :meth:`update`: for callers without a ``pin.Data``."""
-        pin.computeJointJacobians(self.model, self._own_data, np.asarray(q, dtype=float))
-        self.update(self._own_data)
+        q = np.asarray(q, dtype=float)
+        if self.kernel is None:
+            pin.computeJointJacobians(self.model, self._own_data, q)
+        elif len(self.kernel.other):
+            pin.forwardKinematics(self.model, self._own_data, q)
+        self.update(self._own_data, q)
 
-    def update(self, data: pin.Data) -> None:
-        """Distances of every pair at the configuration ``data`` holds.
+    def update(self, data: pin.Data, q: np.ndarray) -> None:
+        """Distances of every pair at configuration ``q`` [rad, m].
 
         ``data`` must be this model's data after ``pin.computeJointJacobians(model, data, q)``
-        (which :meth:`controller.model.kinematics.Kinematics.update` does); it is kept for
-        :meth:`witness` and :meth:`jacobian`.
+        (which :meth:`controller.model.kinematics.Kinematics.update` does); without the
+        compiled kernels it is kept for :meth:`witness` and :meth:`jacobian`.
         """
         self._data = data
-        pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
-        pin.computeDistances(self.geometry, self.geometry_data)
-        self.distances[:] = [r.min_distance for r in self._results]
+        compiled = self.kernel
+        if compiled is None:
+            pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
+            pin.computeDistances(self.geometry, self.geometry_data)
+            self.distances[:] = [r.min_distance for r in self._results]
+            return
+        compiled.update(q, self.distances, self.normals, self.points1, self.points2)
+        if len(compiled.other):  # box-box pairs: coal
+            pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
+            for k in compiled.other.tolist():
+                res = pin.computeDistance(self.geometry, self.geometry_data, k)
+                self.distances[k] = res.min_distance
+                self.normals[k] = np.negative(res.normal)
+                self.points1[k] = res.getNearestPoint1()
+                self.points2[k] = res.getNearestPoint2()
 
     # -------------------------------------------------------------------------- queries
     def witness(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pair ``k``'s witness points ``p1``, ``p2`` [m] (world) and unit normal ``n`` from
         shape 2 to shape 1, at the last :meth:`update`."""
+        if self.kernel is not None:
+            return self.points1[k].copy(), self.points2[k].copy(), self.normals[k].copy()
         res = self._results[k]
         p1 = np.array(res.getNearestPoint1())
         p2 = np.array(res.getNearestPoint2())
@@ -228,6 +270,9 @@ class CollisionDistances:
         k = len(index)
         if not k:
             return
+        if self.kernel is not None:
+            self.kernel.rows(index, self.support, self.normals, self.points1, self.points2, out)
+            return
         results = self._results
         got: list[np.ndarray] = []  # normal, p1 of each row (one array at the end)
         for pair in index.tolist():
@@ -245,7 +290,7 @@ class CollisionDistances:
         rows = out[:k]
         np.dot(n.T, jac[:3], out=rows)
         rows += x.T.dot(jac[3:])
-        rows *= self._support[index]
+        rows *= self.support[index]
 
     # -------------------------------------------------------------------------- padding
     def set_padding(self, links: Iterable[str], radius: float) -> None:
@@ -266,6 +311,8 @@ class CollisionDistances:
                 elif len(size):
                     geom.radius = float(size[0] + radius)
             self.padding[link] = float(radius)
+        if self.kernel is not None:
+            self.kernel.refresh_sizes(self.geometry)
 
     def closest(self) -> int:
         """Index of the pair with the smallest distance (-1 when no pair is checked)."""

@@ -44,6 +44,7 @@ from controller.model.kinematics import Kinematics
 from controller.model.obstacles import Obstacle
 from controller.model.profile import CollisionAvoidance as Settings
 from controller.qp.constraints.braking import BRAKING_SHARE
+from controller.qp.constraints.damper_kernel import collision_rows
 from controller.qp.constraints.protocol import (
     INF,
     ConstraintSetup,
@@ -62,6 +63,9 @@ BRAKE_MARGIN = 1e-6
 MIN_REACH = 1e-6
 #: A row binds when ``J_d v`` is within this [m/s] of its bound.
 BINDING_TOL = 1e-5
+#: A row whose bound the cycle's joint box meets anyway (``min J_d v`` over the box at least
+#: its bound, less this [m/s] for rounding) is left out of the QP: it cannot bind.
+IMPLIED = 1e-9
 
 
 class CollisionAvoidance:
@@ -97,12 +101,31 @@ class CollisionAvoidance:
         self._ah[:, 0] = self._a_max_all
         #: Approach speed allowed per pair at the last cycle [m/s] (INF: out of range).
         self.allowed = np.full(len(distances), INF)
-        #: The pairs of this cycle's rows, in row order, and their lower bounds [m/s].
-        self.pairs = np.zeros(0, dtype=int)
+        #: The pairs in range this cycle (ascending), and those of the QP's rows (in row
+        #: order: the pairs in range less those whose row the joint box implies).
+        self.pairs = np.zeros(0, dtype=np.int64)
+        self.row_pairs = np.zeros(0, dtype=np.int64)
+        #: The QP rows' lower bounds [m/s].
         self._rows_lo = np.zeros(self.max_rows)
         #: The least ``J_d v / |J_d|`` the cycle's box allows, per row.
         self._low = np.zeros(self.max_rows)
         self._rows: RowBlock | None = None
+        #: The compiled path's pair buffers (two: this cycle's and the last one's) and
+        #: settings (see :func:`damper_rows`).
+        self._buffers = self._pair_buffers(self.max_rows)
+        self._settings = np.array(
+            [self.security, self.span, self.damping, dt, BRAKING_SHARE, INTERIOR,
+             BRAKE_MARGIN, MIN_REACH, IMPLIED, INF]
+        )  # fmt: skip
+        self._key = np.zeros(len(distances))
+        self._candidates = np.zeros(len(distances), dtype=np.int64)
+        #: Acceleration limits of the joints, 0 for frozen ones [rad/s², m/s²] (contiguous).
+        self._a_max = self._a_max_all.copy()
+
+    @staticmethod
+    def _pair_buffers(size: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Two (pairs in range, pairs of the rows) buffers of ``size`` for the kernel."""
+        return [(np.zeros(size, dtype=np.int64), np.zeros(size, dtype=np.int64)) for _ in "ab"]
 
     @property
     def span(self) -> float:
@@ -112,9 +135,15 @@ class CollisionAvoidance:
     def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
         """Frozen joints give no deceleration."""
         self._ah[:, 0] = np.where(setup.frozen, 0.0, self._a_max_all)
+        self._a_max[...] = self._ah[:, 0]
 
     def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
         self._rows = rows
+        if len(self._low) < self.max_rows:  # raised since (tests and tools do)
+            self._buffers = self._pair_buffers(self.max_rows)
+            self._low, self._rows_lo = np.zeros(self.max_rows), np.zeros(self.max_rows)
+        if self.distances.kernel is not None:
+            return self._compiled(cycle, rows)
         dist = self.distances
         d = dist.distances
         # Pairs in range: closer than d_i, or closing in fast enough to get there within
@@ -126,11 +155,13 @@ class CollisionAvoidance:
         key = d - closing * (self.lookahead / self.dt)
         near = np.flatnonzero(key < self.influence)
         if len(near) > self.max_rows:
-            near = near[np.argpartition(key[near], self.max_rows - 1)[: self.max_rows]]
+            # the most urgent; equal keys (symmetric shapes): the lower pair index
+            urgent = np.argsort(key[near], kind="stable")[: self.max_rows]
+            near = np.sort(near[urgent])
         k = len(near)
         if not k:
             self.allowed[self.pairs] = INF
-            self.pairs = near
+            self.pairs = self.row_pairs = near
             return 0
         C, lo, hi = rows.C[:k], rows.lo[:k], rows.hi[:k]
         dist.jacobian_into(near, C)
@@ -179,9 +210,46 @@ class CollisionAvoidance:
         lo[reach < MIN_REACH] = -INF
         hi[...] = INF
         low *= 0.5
+        self.row_pairs = near
+        if lb is not None and ub is not None:  # rows the box implies stay out of the QP
+            keep = np.flatnonzero(lo > low - IMPLIED)
+            m = len(keep)
+            if m < k:
+                C[:m] = C[keep]
+                lo[:m] = lo[keep]
+                low = low[keep]
+                lo[m:] = -INF
+                hi[m:] = INF
+                self.row_pairs = near[keep]
+                k = m
         self._low[:k] = low
-        self._rows_lo[:k] = lo  # before the IK shifts them (frozen joints' share)
+        self._rows_lo[:k] = lo[:k]  # before the IK shifts them (frozen joints' share)
         return k
+
+    def _compiled(self, cycle: CycleState, rows: RowBlock) -> int:
+        """:meth:`compute_qp_inequalities` in one compiled call (same rows, same order)."""
+        dist = self.distances
+        kernel = dist.kernel
+        assert kernel is not None
+        # this cycle's pair buffers: the pair of buffers last cycle's pairs are not in
+        cap = min(self.max_rows, len(rows.lo))  # the kernel writes this many rows at most
+        near, row_pairs = self._buffers[self.pairs.base is self._buffers[0][0]]
+        box = cycle.lb is not None and cycle.ub is not None
+        lb = cycle.v_prev if cycle.lb is None else cycle.lb  # v_prev: unread
+        ub = cycle.v_prev if cycle.ub is None else cycle.ub
+        settings = self._settings  # the values of now (tests and tools change them)
+        settings[:4] = self.security, self.span, self.damping, self.dt
+        k, m = collision_rows(
+            dist.distances, self._d_last, self._key, self._candidates, self.influence,
+            self.lookahead / self.dt, cap, near, self.allowed, self.pairs, dist.support,
+            dist.normals, dist.points1, dist.points2, kernel.col_axis, kernel.col_origin,
+            kernel.col_kind, cycle.v_prev, lb, ub, box, self._a_max, settings,
+            rows.C, rows.lo, rows.hi, self._low, row_pairs,
+        )  # fmt: skip
+        self.pairs = near[:k]
+        self.row_pairs = row_pairs[:m]
+        self._rows_lo[:m] = rows.lo[:m]
+        return int(m)
 
     def _common(
         self,
@@ -217,17 +285,17 @@ class CollisionAvoidance:
         bound, among those closer than ``within`` [m], the closest such pair; -1 when none.
         A row that allows all the joint box allows (the joints it involves are frozen or
         braking anyway) holds nothing back: it never binds."""
-        k = len(self.pairs)
+        k = len(self.row_pairs)
         if not k or self._rows is None:
             return -1
         lo = self._rows_lo[:k]
         slack = self._rows.C[:k].dot(v) - lo
-        close = self.distances.distances[self.pairs] < within
+        close = self.distances.distances[self.row_pairs] < within
         restricts = lo > self._low[:k] + BINDING_TOL
         tight = np.flatnonzero((slack < BINDING_TOL) & restricts & close)
         if not len(tight):
             return -1
-        pairs = self.pairs[tight]
+        pairs = self.row_pairs[tight]
         return int(pairs[np.argmin(self.distances.distances[pairs])])
 
 
