@@ -267,6 +267,7 @@ def main(args: Any) -> int:
     print(f"ours vs the faster peer: {best / ours.median_us:.2f}x")
     out = {
         "robot": robot.id,
+        "clock": args.clock,
         "scenario": "arms-close",
         "ours_us": round(ours.median_us, 1),
         "ours_no_rows_us": round(bare.median_us, 1),

@@ -151,12 +151,27 @@ def _clamp01(x: float) -> float:
 
 
 @_jit
-def _segment_ends(g: int, world_rot: np.ndarray, world_pos: np.ndarray, size: np.ndarray) -> Any:
-    """A capsule's (or sphere's) segment end points, along its z, and its radius [m]."""
-    h = size[g, 1]
-    ax, ay, az = world_rot[g, 0, 2] * h, world_rot[g, 1, 2] * h, world_rot[g, 2, 2] * h
-    cx, cy, cz = world_pos[g, 0], world_pos[g, 1], world_pos[g, 2]
-    return cx - ax, cy - ay, cz - az, cx + ax, cy + ay, cz + az, size[g, 0]
+def _segment_ends(g: int, seg: np.ndarray) -> Any:
+    """A capsule's (or sphere's) segment end points and radius [m] (see :func:`_segments`)."""
+    return seg[g, 0], seg[g, 1], seg[g, 2], seg[g, 3], seg[g, 4], seg[g, 5], seg[g, 6]
+
+
+@_jit
+def _segments(
+    kinds: np.ndarray, world_rot: np.ndarray, world_pos: np.ndarray, size: np.ndarray,
+    seg: np.ndarray,
+) -> None:  # fmt: skip
+    """Per capsule (or sphere) its segment's end points along its z and its radius [m], once
+    per update (pairs share shapes)."""
+    for g in range(kinds.shape[0]):
+        if kinds[g] != CAPSULE:
+            continue
+        h = size[g, 1]
+        ax, ay, az = world_rot[g, 0, 2] * h, world_rot[g, 1, 2] * h, world_rot[g, 2, 2] * h
+        cx, cy, cz = world_pos[g, 0], world_pos[g, 1], world_pos[g, 2]
+        seg[g, 0], seg[g, 1], seg[g, 2] = cx - ax, cy - ay, cz - az
+        seg[g, 3], seg[g, 4], seg[g, 5] = cx + ax, cy + ay, cz + az
+        seg[g, 6] = size[g, 0]
 
 
 @_jit
@@ -182,17 +197,15 @@ def _capsules(
     k: int,
     g1: int,
     g2: int,
-    world_rot: np.ndarray,
-    world_pos: np.ndarray,
-    size: np.ndarray,
+    seg: np.ndarray,
     d: np.ndarray,
     n: np.ndarray,
     p1: np.ndarray,
     p2: np.ndarray,
 ) -> None:
     """Two capsules (or spheres): the closest points of their segments, minus the radii."""
-    a1x, a1y, a1z, b1x, b1y, b1z, r1 = _segment_ends(g1, world_rot, world_pos, size)
-    a2x, a2y, a2z, b2x, b2y, b2z, r2 = _segment_ends(g2, world_rot, world_pos, size)
+    a1x, a1y, a1z, b1x, b1y, b1z, r1 = _segment_ends(g1, seg)
+    a2x, a2y, a2z, b2x, b2y, b2z, r2 = _segment_ends(g2, seg)
     e1x, e1y, e1z = b1x - a1x, b1y - a1y, b1z - a1z
     e2x, e2y, e2z = b2x - a2x, b2y - a2y, b2z - a2z
     wx, wy, wz = a1x - a2x, a1y - a2y, a1z - a2z
@@ -328,6 +341,7 @@ def _capsule_box(
     world_rot: np.ndarray,
     world_pos: np.ndarray,
     size: np.ndarray,
+    seg: np.ndarray,
     d: np.ndarray,
     n: np.ndarray,
     p1: np.ndarray,
@@ -335,7 +349,7 @@ def _capsule_box(
     scratch: np.ndarray,
 ) -> None:
     """A capsule (or sphere) and a box; ``flip``: the box is shape 1. ``scratch``: 14 values."""
-    a_x, a_y, a_z, b_x, b_y, b_z, r = _segment_ends(cap, world_rot, world_pos, size)
+    a_x, a_y, a_z, b_x, b_y, b_z, r = _segment_ends(cap, seg)
     R = world_rot[box]
     c = world_pos[box]
     h = size[box]
@@ -403,6 +417,7 @@ def _halfspace(
     world_rot: np.ndarray,
     world_pos: np.ndarray,
     size: np.ndarray,
+    seg: np.ndarray,
     d: np.ndarray,
     n: np.ndarray,
     p1: np.ndarray,
@@ -418,7 +433,7 @@ def _halfspace(
     uz = R[2, 0] * lx + R[2, 1] * ly + R[2, 2] * lz
     level = off + ux * c[0] + uy * c[1] + uz * c[2]
     if kinds[shape] == CAPSULE:
-        a_x, a_y, a_z, b_x, b_y, b_z, r = _segment_ends(shape, world_rot, world_pos, size)
+        a_x, a_y, a_z, b_x, b_y, b_z, r = _segment_ends(shape, seg)
         sa = ux * a_x + uy * a_y + uz * a_z
         sb = ux * b_x + uy * b_y + uz * b_z
         if abs(sa - sb) < 1e-12:
@@ -475,6 +490,7 @@ def update(
     pair_kind: np.ndarray,
     kinds: np.ndarray,
     size: np.ndarray,
+    seg: np.ndarray,
     d: np.ndarray,
     n: np.ndarray,
     p1: np.ndarray,
@@ -485,7 +501,7 @@ def update(
         q, parent, kind, axis, place_rot, place_pos, index, rot, pos, col_axis, col_origin,
         col_kind, shape_joint, shape_rot, shape_pos, world_rot, world_pos,
     )  # fmt: skip
-    pair_distances(pairs, pair_kind, kinds, world_rot, world_pos, size, d, n, p1, p2)
+    pair_distances(pairs, pair_kind, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
 
 
 @_jit
@@ -496,6 +512,7 @@ def pair_distances(
     world_rot: np.ndarray,
     world_pos: np.ndarray,
     size: np.ndarray,
+    seg: np.ndarray,
     d: np.ndarray,
     n: np.ndarray,
     p1: np.ndarray,
@@ -507,21 +524,22 @@ def pair_distances(
     box (half sides), half-space (normal, offset) in its own frame. ``OTHER`` rows are
     left as they are."""
     scratch = np.empty(14)
+    _segments(kinds, world_rot, world_pos, size, seg)
     for k in range(pairs.shape[0]):
         if pair_kind[k] != KERNEL:
             continue
         g1, g2 = pairs[k, 0], pairs[k, 1]
         k1, k2 = kinds[g1], kinds[g2]
         if k1 == CAPSULE and k2 == CAPSULE:
-            _capsules(k, g1, g2, world_rot, world_pos, size, d, n, p1, p2)
+            _capsules(k, g1, g2, seg, d, n, p1, p2)
         elif k2 == HALFSPACE:
-            _halfspace(k, g1, g2, False, kinds, world_rot, world_pos, size, d, n, p1, p2)
+            _halfspace(k, g1, g2, False, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
         elif k1 == HALFSPACE:
-            _halfspace(k, g2, g1, True, kinds, world_rot, world_pos, size, d, n, p1, p2)
+            _halfspace(k, g2, g1, True, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
         elif k2 == BOX:
-            _capsule_box(k, g1, g2, False, world_rot, world_pos, size, d, n, p1, p2, scratch)
+            _capsule_box(k, g1, g2, False, world_rot, world_pos, size, seg, d, n, p1, p2, scratch)
         else:
-            _capsule_box(k, g2, g1, True, world_rot, world_pos, size, d, n, p1, p2, scratch)
+            _capsule_box(k, g2, g1, True, world_rot, world_pos, size, seg, d, n, p1, p2, scratch)
 
 
 # ------------------------------------------------------------------------------- Jacobian
@@ -647,6 +665,8 @@ class CompiledPairs:
         self.col_kind = np.zeros(nv, dtype=np.int64)
         self.world_rot = np.zeros((ng, 3, 3))
         self.world_pos = np.zeros((ng, 3))
+        #: Per capsule or sphere: segment end points and radius [m] (see :func:`_segments`).
+        self.segments = np.zeros((ng, 7))
 
     def refresh_sizes(self, geometry: pin.GeometryModel) -> None:
         """Read the shapes' sizes again (after a padding changed them)."""
@@ -661,7 +681,7 @@ class CompiledPairs:
             q, self.parent, self.kind, self.axis, self.place_rot, self.place_pos, self.index,
             self.rot, self.pos, self.col_axis, self.col_origin, self.col_kind,
             self.shape_joint, self.shape_rot, self.shape_pos, self.world_rot, self.world_pos,
-            self.pairs, self.pair_kind, self.kinds, self.size, d, n, p1, p2,
+            self.pairs, self.pair_kind, self.kinds, self.size, self.segments, d, n, p1, p2,
         )  # fmt: skip
 
     def rows(
