@@ -212,3 +212,16 @@ def test_padding_refuses_bad_values_and_unknown_links() -> None:
         dist.set_padding(["flange"], float("nan"))
     with pytest.raises(ValueError, match="not a link with collision shapes"):
         dist.set_padding(["nowhere"], 0.01)
+
+
+def test_the_documented_distances_example_runs() -> None:
+    """docs/collision.md's Python example under "## Distances" (both back ends)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "collision.md").read_text()
+    code = text[text.index("## Distances") :].split("```python\n", 1)[1].split("```", 1)[0]
+    scope: dict[str, object] = {}
+    exec(compile(code, "docs/collision.md", "exec"), scope)
+    assert isinstance(scope["dist"], CollisionDistances)
+    rows = scope["rows"]
+    assert isinstance(rows, np.ndarray) and rows.shape[1] == kinematics("smartpal5").nv
