@@ -29,7 +29,14 @@ the joints' braking distances):
   pairs are in range.
 
 Both levels; relaxation "no further" (``lo ≤ 0`` always holds: the rows are never dropped).
-More pairs in range than ``max_rows``: the closest ones.
+More pairs in range than ``max_rows``: the most urgent ones (equal urgency: the lower pair
+index). A row the cycle's joint box implies (``min J_d v`` over the box at least its bound)
+cannot bind and stays out of the QP (:attr:`CollisionAvoidance.row_pairs` lists the rows'
+pairs, :attr:`~CollisionAvoidance.pairs` every pair in range).
+
+With compiled distances (:attr:`CollisionDistances.compiled`) one call of
+:mod:`~controller.qp.constraints.damper_kernel` does all of this; the NumPy code below is the
+fallback and the reference the kernel is tested against.
 """
 
 from __future__ import annotations
