@@ -58,19 +58,21 @@ def test_placements_are_pinocchios(robot_id: str) -> None:
         pin.computeJointJacobians(kin.model, data, q)
         pin.updateGeometryPlacements(kin.model, data, dist.geometry, dist.geometry_data)
         for j in range(1, kin.model.njoints):
-            np.testing.assert_allclose(kernel.rot[j], data.oMi[j].rotation, atol=1e-12)
-            np.testing.assert_allclose(kernel.pos[j], data.oMi[j].translation, atol=1e-12)
+            np.testing.assert_allclose(kernel.joint_world[j, :3], data.oMi[j].rotation, atol=1e-12)
+            np.testing.assert_allclose(
+                kernel.joint_world[j, 3], data.oMi[j].translation, atol=1e-12
+            )
         jac = data.J
         for v in range(kin.nv):
-            axis, origin = kernel.col_axis[v], kernel.col_origin[v]
-            if kernel.col_kind[v] == ck.REVOLUTE:  # (v_O, w) = (origin x axis, axis)
+            axis, origin = kernel.columns[v]
+            if kernel.column_kind[v] == ck.REVOLUTE:  # (v_O, w) = (origin x axis, axis)
                 np.testing.assert_allclose(jac[3:, v], axis, atol=1e-12)
                 np.testing.assert_allclose(jac[:3, v], np.cross(origin, axis), atol=1e-12)
             else:
                 np.testing.assert_allclose(jac[:3, v], axis, atol=1e-12)
         for g, placement in enumerate(dist.geometry_data.oMg):
-            np.testing.assert_allclose(kernel.world_rot[g], placement.rotation, atol=1e-12)
-            np.testing.assert_allclose(kernel.world_pos[g], placement.translation, atol=1e-12)
+            np.testing.assert_allclose(kernel.shape_world[g, :3], placement.rotation, atol=1e-12)
+            np.testing.assert_allclose(kernel.shape_world[g, 3], placement.translation, atol=1e-12)
 
 
 @pytest.mark.parametrize("robot_id", ROBOTS)
@@ -81,7 +83,7 @@ def test_distances_witnesses_and_rows_equal_coals(
     the same witness points and rows; overlapping ones overlap for both."""
     kin = kinematics(robot_id)
     compiled, coal_only = both(kin, monkeypatch)
-    kinds = compiled.kernel.kinds[compiled.kernel.pairs]  # type: ignore[union-attr]
+    kinds = compiled.kernel.kinds[compiled.kernel.pairs[:, :2]]  # type: ignore[union-attr]
     assert {ck.BOX, ck.HALFSPACE} <= set(kinds.ravel().tolist())
     overlaps = compared = matched = 0
     same: list[int] = []

@@ -167,10 +167,12 @@ class CollisionDistances:
         #: Signed distance of each pair [m] at the last update (negative: overlap).
         self.distances = np.zeros(count)
         #: With the compiled kernels: per pair the unit normal from shape 2 to shape 1 and the
-        #: witness points on shape 1 and shape 2 (world [m]) at the last update.
-        self.normals = np.zeros((count, 3))
-        self.points1 = np.zeros((count, 3))
-        self.points2 = np.zeros((count, 3))
+        #: witness points on shape 1 and shape 2 (world [m]) at the last update (views of
+        #: one array, :attr:`witnesses`, as the kernels take them).
+        self.witnesses = np.zeros((count, 3, 3))
+        self.normals = self.witnesses[:, 0]
+        self.points1 = self.witnesses[:, 1]
+        self.points2 = self.witnesses[:, 2]
         self._data: pin.Data = self._own_data
         #: The compiled kernels' model and work arrays (None: coal for every pair, see
         #: :attr:`compiled`).
@@ -224,7 +226,7 @@ class CollisionDistances:
             pin.computeDistances(self.geometry, self.geometry_data)
             self.distances[:] = [r.min_distance for r in self._results]
             return
-        compiled.update(q, self.distances, self.normals, self.points1, self.points2)
+        compiled.update(q, self.distances, self.witnesses)
         if len(compiled.other):  # box-box pairs: coal
             pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
             for k in compiled.other.tolist():
@@ -271,7 +273,7 @@ class CollisionDistances:
         if not k:
             return
         if self.kernel is not None:
-            self.kernel.rows(index, self.support, self.normals, self.points1, self.points2, out)
+            self.kernel.rows(index, self.support, self.witnesses, out)
             return
         results = self._results
         got: list[np.ndarray] = []  # normal, p1 of each row (one array at the end)

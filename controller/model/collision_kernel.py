@@ -68,51 +68,56 @@ def _jit(function: F) -> F:
     return cast(F, numba.njit(cache=True, nogil=True, error_model="numpy")(function))
 
 
-# ----------------------------------------------------------------------------- kinematics
+# ------------------------------------------------------------------------------- update
 @_jit
-def forward(
+def update(
     q: np.ndarray,
-    parent: np.ndarray,
-    kind: np.ndarray,
-    axis: np.ndarray,
-    place_rot: np.ndarray,
-    place_pos: np.ndarray,
-    index: np.ndarray,
-    rot: np.ndarray,
-    pos: np.ndarray,
-    col_axis: np.ndarray,
-    col_origin: np.ndarray,
-    col_kind: np.ndarray,
-    shape_joint: np.ndarray,
-    shape_rot: np.ndarray,
-    shape_pos: np.ndarray,
-    world_rot: np.ndarray,
-    world_pos: np.ndarray,
+    joint_int: np.ndarray,
+    joint_frame: np.ndarray,
+    joint_world: np.ndarray,
+    columns: np.ndarray,
+    column_kind: np.ndarray,
+    shape_int: np.ndarray,
+    shape_frame: np.ndarray,
+    shape_world: np.ndarray,
+    size: np.ndarray,
+    seg: np.ndarray,
+    pairs: np.ndarray,
+    d: np.ndarray,
+    witness: np.ndarray,
 ) -> None:
-    """Joint placements ``rot``/``pos`` (world) of configuration ``q`` [rad, m], the Jacobian
-    columns (world ``col_axis``, ``col_origin`` [m], ``col_kind``) by velocity index, and the
-    shapes' world placements ``world_rot``/``world_pos`` from their placements on their
-    joints. Joint 0 is the world (``rot[0]`` = I, ``pos[0]`` = 0, set by the caller)."""
+    """Everything of configuration ``q`` [rad, m] (see :class:`CompiledPairs` for the arrays):
+
+    * the joints' world placements ``joint_world`` (rows 0-2 rotation, row 3 translation
+      [m]; joint 0 is the world, set by the caller) from ``joint_int`` (parent, kind,
+      velocity index) and ``joint_frame`` (placement rotation, translation, axis);
+    * the Jacobian ``columns`` by velocity index (world axis, a point of it [m]) and kinds;
+    * the shapes' world placements ``shape_world`` from ``shape_frame`` (on their joint,
+      ``shape_int``: joint, kind) and the capsules' segments ``seg``;
+    * per ``KERNEL`` pair of ``pairs`` (shape 1, shape 2, kind) the distance ``d`` [m] and
+      ``witness``: normal from shape 2 to shape 1, witness points on shape 1 and 2 [m].
+      ``size`` per shape: capsule (radius, half length), sphere (radius, 0), box (half
+      sides), half-space (normal, offset) in its own frame. ``OTHER`` rows are left as
+      they are."""
     r = np.empty((3, 3))
-    for j in range(1, parent.shape[0]):
-        p = parent[j]
+    for j in range(1, joint_int.shape[0]):
+        p, kind, v = joint_int[j, 0], joint_int[j, 1], joint_int[j, 2]
         for a in range(3):
-            s = pos[p, a]
+            s = joint_world[p, 3, a]
             for b in range(3):
-                s += rot[p, a, b] * place_pos[j, b]
-            pos[j, a] = s
+                s += joint_world[p, a, b] * joint_frame[j, 3, b]
+            joint_world[j, 3, a] = s
             for b in range(3):
                 s = 0.0
                 for c in range(3):
-                    s += rot[p, a, c] * place_rot[j, c, b]
+                    s += joint_world[p, a, c] * joint_frame[j, c, b]
                 r[a, b] = s
-        x = q[index[j]]
-        ux, uy, uz = axis[j, 0], axis[j, 1], axis[j, 2]
-        v = index[j]
+        x = q[v]
+        ux, uy, uz = joint_frame[j, 4, 0], joint_frame[j, 4, 1], joint_frame[j, 4, 2]
         for a in range(3):
-            col_axis[v, a] = r[a, 0] * ux + r[a, 1] * uy + r[a, 2] * uz
-        col_kind[v] = kind[j]
-        if kind[j] == REVOLUTE:
+            columns[v, 0, a] = r[a, 0] * ux + r[a, 1] * uy + r[a, 2] * uz
+        column_kind[v] = kind
+        if kind == REVOLUTE:
             co, si = math.cos(x), math.sin(x)
             t = 1.0 - co
             m00, m01, m02 = co + ux * ux * t, ux * uy * t - uz * si, ux * uz * t + uy * si
@@ -120,28 +125,49 @@ def forward(
             m20, m21, m22 = uz * ux * t - uy * si, uz * uy * t + ux * si, co + uz * uz * t
             for a in range(3):
                 r0, r1, r2 = r[a, 0], r[a, 1], r[a, 2]
-                rot[j, a, 0] = r0 * m00 + r1 * m10 + r2 * m20
-                rot[j, a, 1] = r0 * m01 + r1 * m11 + r2 * m21
-                rot[j, a, 2] = r0 * m02 + r1 * m12 + r2 * m22
+                joint_world[j, a, 0] = r0 * m00 + r1 * m10 + r2 * m20
+                joint_world[j, a, 1] = r0 * m01 + r1 * m11 + r2 * m21
+                joint_world[j, a, 2] = r0 * m02 + r1 * m12 + r2 * m22
         else:
             for a in range(3):
-                pos[j, a] += col_axis[v, a] * x
+                joint_world[j, 3, a] += columns[v, 0, a] * x
                 for b in range(3):
-                    rot[j, a, b] = r[a, b]
+                    joint_world[j, a, b] = r[a, b]
         for a in range(3):
-            col_origin[v, a] = pos[j, a]
-    for g in range(shape_joint.shape[0]):
-        j = shape_joint[g]
+            columns[v, 1, a] = joint_world[j, 3, a]
+    for g in range(shape_int.shape[0]):
+        j = shape_int[g, 0]
         for a in range(3):
-            s = pos[j, a]
+            s = joint_world[j, 3, a]
             for b in range(3):
-                s += rot[j, a, b] * shape_pos[g, b]
-            world_pos[g, a] = s
+                s += joint_world[j, a, b] * shape_frame[g, 3, b]
+            shape_world[g, 3, a] = s
             for b in range(3):
                 s = 0.0
                 for c in range(3):
-                    s += rot[j, a, c] * shape_rot[g, c, b]
-                world_rot[g, a, b] = s
+                    s += joint_world[j, a, c] * shape_frame[g, c, b]
+                shape_world[g, a, b] = s
+    kinds = shape_int[:, 1]
+    world_rot = shape_world[:, :3]
+    world_pos = shape_world[:, 3]
+    _segments(kinds, world_rot, world_pos, size, seg)
+    n, p1, p2 = witness[:, 0], witness[:, 1], witness[:, 2]
+    scratch = np.empty(14)
+    for k in range(pairs.shape[0]):
+        if pairs[k, 2] != KERNEL:
+            continue
+        g1, g2 = pairs[k, 0], pairs[k, 1]
+        k1, k2 = kinds[g1], kinds[g2]
+        if k1 == CAPSULE and k2 == CAPSULE:
+            _capsules(k, g1, g2, seg, d, n, p1, p2)
+        elif k2 == HALFSPACE:
+            _halfspace(k, g1, g2, False, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
+        elif k1 == HALFSPACE:
+            _halfspace(k, g2, g1, True, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
+        elif k2 == BOX:
+            _capsule_box(k, g1, g2, False, world_rot, world_pos, size, seg, d, n, p1, p2, scratch)
+        else:
+            _capsule_box(k, g2, g1, True, world_rot, world_pos, size, seg, d, n, p1, p2, scratch)
 
 
 # ------------------------------------------------------------------------------ distances
@@ -467,118 +493,37 @@ def _halfspace(
         p2[k, 0], p2[k, 1], p2[k, 2] = wx, wy, wz
 
 
-@_jit
-def update(
-    q: np.ndarray,
-    parent: np.ndarray,
-    kind: np.ndarray,
-    axis: np.ndarray,
-    place_rot: np.ndarray,
-    place_pos: np.ndarray,
-    index: np.ndarray,
-    rot: np.ndarray,
-    pos: np.ndarray,
-    col_axis: np.ndarray,
-    col_origin: np.ndarray,
-    col_kind: np.ndarray,
-    shape_joint: np.ndarray,
-    shape_rot: np.ndarray,
-    shape_pos: np.ndarray,
-    world_rot: np.ndarray,
-    world_pos: np.ndarray,
-    pairs: np.ndarray,
-    pair_kind: np.ndarray,
-    kinds: np.ndarray,
-    size: np.ndarray,
-    seg: np.ndarray,
-    d: np.ndarray,
-    n: np.ndarray,
-    p1: np.ndarray,
-    p2: np.ndarray,
-) -> None:
-    """:func:`forward` then :func:`pair_distances` (one call from Python)."""
-    forward(
-        q, parent, kind, axis, place_rot, place_pos, index, rot, pos, col_axis, col_origin,
-        col_kind, shape_joint, shape_rot, shape_pos, world_rot, world_pos,
-    )  # fmt: skip
-    pair_distances(pairs, pair_kind, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
-
-
-@_jit
-def pair_distances(
-    pairs: np.ndarray,
-    pair_kind: np.ndarray,
-    kinds: np.ndarray,
-    world_rot: np.ndarray,
-    world_pos: np.ndarray,
-    size: np.ndarray,
-    seg: np.ndarray,
-    d: np.ndarray,
-    n: np.ndarray,
-    p1: np.ndarray,
-    p2: np.ndarray,
-) -> None:
-    """Distance ``d`` [m], normal ``n`` (shape 2 → 1) and witness points ``p1``, ``p2`` [m] of
-    every ``KERNEL`` pair ``(shape 1, shape 2)`` at the shapes' world placements (after
-    :func:`forward`). ``size`` per shape: capsule (radius, half length), sphere (radius, 0),
-    box (half sides), half-space (normal, offset) in its own frame. ``OTHER`` rows are
-    left as they are."""
-    scratch = np.empty(14)
-    _segments(kinds, world_rot, world_pos, size, seg)
-    for k in range(pairs.shape[0]):
-        if pair_kind[k] != KERNEL:
-            continue
-        g1, g2 = pairs[k, 0], pairs[k, 1]
-        k1, k2 = kinds[g1], kinds[g2]
-        if k1 == CAPSULE and k2 == CAPSULE:
-            _capsules(k, g1, g2, seg, d, n, p1, p2)
-        elif k2 == HALFSPACE:
-            _halfspace(k, g1, g2, False, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
-        elif k1 == HALFSPACE:
-            _halfspace(k, g2, g1, True, kinds, world_rot, world_pos, size, seg, d, n, p1, p2)
-        elif k2 == BOX:
-            _capsule_box(k, g1, g2, False, world_rot, world_pos, size, seg, d, n, p1, p2, scratch)
-        else:
-            _capsule_box(k, g2, g1, True, world_rot, world_pos, size, seg, d, n, p1, p2, scratch)
-
-
 # ------------------------------------------------------------------------------- Jacobian
 @_jit
 def jacobian_rows(
     index: np.ndarray,
     support: np.ndarray,
-    n: np.ndarray,
-    p1: np.ndarray,
-    p2: np.ndarray,
-    col_axis: np.ndarray,
-    col_origin: np.ndarray,
-    col_kind: np.ndarray,
+    witness: np.ndarray,
+    columns: np.ndarray,
+    column_kind: np.ndarray,
     out: np.ndarray,
 ) -> None:
     """``out[r] = n^T (J_p1 − J_p2)`` of pair ``index[r]`` [m/rad, m/m]: over each column of
     its ``support`` mask (+1: moves shape 1 only, −1: shape 2 only, 0: both alike or none),
     a revolute joint moves a point ``p`` at ``axis × (p − origin)``, a prismatic one at
-    ``axis``."""
+    ``axis`` (``columns``, ``witness``: see :func:`update`)."""
     nv = out.shape[1]
     for r in range(index.shape[0]):
         k = index[r]
-        nx, ny, nz = n[k, 0], n[k, 1], n[k, 2]
+        nx, ny, nz = witness[k, 0, 0], witness[k, 0, 1], witness[k, 0, 2]
         for v in range(nv):
             s = support[k, v]
             if s == 0.0:
                 out[r, v] = 0.0
                 continue
-            ax, ay, az = col_axis[v, 0], col_axis[v, 1], col_axis[v, 2]
-            if col_kind[v] == PRISMATIC:
+            ax, ay, az = columns[v, 0, 0], columns[v, 0, 1], columns[v, 0, 2]
+            if column_kind[v] == PRISMATIC:
                 out[r, v] = s * (nx * ax + ny * ay + nz * az)
                 continue
-            if s > 0.0:
-                rx, ry, rz = p1[k, 0], p1[k, 1], p1[k, 2]
-            else:
-                rx, ry, rz = p2[k, 0], p2[k, 1], p2[k, 2]
-            rx -= col_origin[v, 0]
-            ry -= col_origin[v, 1]
-            rz -= col_origin[v, 2]
+            side = 1 if s > 0.0 else 2  # the witness point on the shape this joint moves
+            rx = witness[k, side, 0] - columns[v, 1, 0]
+            ry = witness[k, side, 1] - columns[v, 1, 1]
+            rz = witness[k, side, 2] - columns[v, 1, 2]
             # n · (axis × r)
             out[r, v] = s * (
                 nx * (ay * rz - az * ry) + ny * (az * rx - ax * rz) + nz * (ax * ry - ay * rx)
@@ -614,18 +559,21 @@ class CompiledPairs:
 
     ``pairs``: (shape 1, shape 2) geometry indices per row. Raises :class:`Unsupported` for
     joints other than 1-dof revolute/prismatic ones or shapes other than capsules, spheres,
-    boxes and half-spaces. Not thread-safe (one per :class:`CollisionDistances`)."""
+    boxes and half-spaces. Not thread-safe (one per :class:`CollisionDistances`).
+
+    Arrays (few and packed: each array a compiled call takes costs ~0.07 µs to pass):
+    ``joint_int`` (parent, kind, velocity index), ``joint_frame`` (placement rotation rows,
+    translation, axis), ``joint_world`` (rotation rows, translation [m]), ``columns`` (axis,
+    origin [m]) and ``column_kind`` by velocity index, ``shape_int`` (joint, kind),
+    ``shape_frame`` and ``shape_world`` (rotation rows, translation [m]), ``size``,
+    ``segments``, ``pairs`` (shape 1, shape 2, ``KERNEL``/``OTHER``)."""
 
     def __init__(self, model: pin.Model, geometry: pin.GeometryModel, pairs: np.ndarray):
         nj = model.njoints
         data = model.createData()
         pin.forwardKinematics(model, data, pin.neutral(model))
-        self.parent = np.array(model.parents, dtype=np.int64)
-        self.kind = np.zeros(nj, dtype=np.int64)
-        self.axis = np.zeros((nj, 3))
-        self.place_rot = np.zeros((nj, 3, 3))
-        self.place_pos = np.zeros((nj, 3))
-        self.index = np.zeros(nj, dtype=np.int64)
+        self.joint_int = np.zeros((nj, 3), dtype=np.int64)
+        self.joint_frame = np.zeros((nj, 5, 3))
         for j in range(1, nj):
             joint = model.joints[j]
             if joint.nq != 1 or joint.nv != 1 or joint.idx_q != joint.idx_v:
@@ -633,65 +581,63 @@ class CompiledPairs:
             motion = np.asarray(data.joints[j].S).ravel()
             linear, angular = motion[:3], motion[3:]
             if np.linalg.norm(angular) > 0.5 and np.linalg.norm(linear) < 1e-12:
-                self.kind[j], self.axis[j] = REVOLUTE, angular
+                kind, axis = REVOLUTE, angular
             elif np.linalg.norm(linear) > 0.5 and np.linalg.norm(angular) < 1e-12:
-                self.kind[j], self.axis[j] = PRISMATIC, linear
+                kind, axis = PRISMATIC, linear
             else:
                 raise Unsupported(f"joint {model.names[j]!r} ({joint.shortname()})")
+            self.joint_int[j] = model.parents[j], kind, joint.idx_v
             placement = model.jointPlacements[j]
-            self.place_rot[j] = placement.rotation
-            self.place_pos[j] = placement.translation
-            self.index[j] = joint.idx_v
+            self.joint_frame[j, :3] = placement.rotation
+            self.joint_frame[j, 3] = placement.translation
+            self.joint_frame[j, 4] = axis
         objects = geometry.geometryObjects
         ng = len(objects)
-        self.shape_joint = np.array([o.parentJoint for o in objects], dtype=np.int64)
-        self.shape_rot = np.array([o.placement.rotation for o in objects]).reshape(ng, 3, 3)
-        self.shape_pos = np.array([o.placement.translation for o in objects]).reshape(ng, 3)
-        self.kinds = np.zeros(ng, dtype=np.int64)
+        self.shape_int = np.zeros((ng, 2), dtype=np.int64)
+        self.shape_frame = np.zeros((ng, 4, 3))
+        for g, obj in enumerate(objects):
+            self.shape_int[g, 0] = obj.parentJoint
+            self.shape_frame[g, :3] = obj.placement.rotation
+            self.shape_frame[g, 3] = obj.placement.translation
         self.size = np.zeros((ng, 4))
         self.refresh_sizes(geometry)
-        self.pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
-        both = self.kinds[self.pairs]
-        self.pair_kind = np.where((both == BOX).all(axis=1), OTHER, KERNEL).astype(np.int64)
+        shapes = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
+        self.pairs = np.zeros((len(shapes), 3), dtype=np.int64)
+        self.pairs[:, :2] = shapes
+        boxes = (self.shape_int[:, 1][shapes] == BOX).all(axis=1)
+        self.pairs[:, 2] = np.where(boxes, OTHER, KERNEL)
         #: Rows coal computes (box–box pairs).
-        self.other = np.flatnonzero(self.pair_kind == OTHER)
+        self.other = np.flatnonzero(boxes)
         # work arrays
-        self.rot = np.zeros((nj, 3, 3))
-        self.rot[0] = np.eye(3)
-        self.pos = np.zeros((nj, 3))
+        self.joint_world = np.zeros((nj, 4, 3))
+        self.joint_world[0, :3] = np.eye(3)
         nv = model.nv
-        self.col_axis = np.zeros((nv, 3))
-        self.col_origin = np.zeros((nv, 3))
-        self.col_kind = np.zeros(nv, dtype=np.int64)
-        self.world_rot = np.zeros((ng, 3, 3))
-        self.world_pos = np.zeros((ng, 3))
+        self.columns = np.zeros((nv, 2, 3))
+        self.column_kind = np.zeros(nv, dtype=np.int64)
+        self.shape_world = np.zeros((ng, 4, 3))
         #: Per capsule or sphere: segment end points and radius [m] (see :func:`_segments`).
         self.segments = np.zeros((ng, 7))
+
+    @property
+    def kinds(self) -> np.ndarray:
+        """Kind of each shape (``CAPSULE``, ``BOX``, ``HALFSPACE``)."""
+        return self.shape_int[:, 1]
 
     def refresh_sizes(self, geometry: pin.GeometryModel) -> None:
         """Read the shapes' sizes again (after a padding changed them)."""
         for g, obj in enumerate(geometry.geometryObjects):
-            self.kinds[g], self.size[g] = _shape_row(obj.geometry)
+            self.shape_int[g, 1], self.size[g] = _shape_row(obj.geometry)
 
-    def update(
-        self, q: np.ndarray, d: np.ndarray, n: np.ndarray, p1: np.ndarray, p2: np.ndarray
-    ) -> None:
-        """Placements at ``q`` [rad, m], then the distances of the kernel's rows."""
+    def update(self, q: np.ndarray, d: np.ndarray, witness: np.ndarray) -> None:
+        """:func:`update` at ``q`` [rad, m] into ``d`` and ``witness``."""
         update(
-            q, self.parent, self.kind, self.axis, self.place_rot, self.place_pos, self.index,
-            self.rot, self.pos, self.col_axis, self.col_origin, self.col_kind,
-            self.shape_joint, self.shape_rot, self.shape_pos, self.world_rot, self.world_pos,
-            self.pairs, self.pair_kind, self.kinds, self.size, self.segments, d, n, p1, p2,
+            q, self.joint_int, self.joint_frame, self.joint_world, self.columns,
+            self.column_kind, self.shape_int, self.shape_frame, self.shape_world, self.size,
+            self.segments, self.pairs, d, witness,
         )  # fmt: skip
 
     def rows(
-        self,
-        index: np.ndarray,
-        support: np.ndarray,
-        n: np.ndarray,
-        p1: np.ndarray,
-        p2: np.ndarray,
-        out: np.ndarray,
+        self, index: np.ndarray, support: np.ndarray, witness: np.ndarray, out: np.ndarray
     ) -> None:
         """:func:`jacobian_rows` at the last :meth:`update`."""
-        jacobian_rows(index, support, n, p1, p2, self.col_axis, self.col_origin, self.col_kind, out)
+        jacobian_rows(index, support, witness, self.columns, self.column_kind, out)

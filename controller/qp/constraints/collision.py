@@ -98,8 +98,11 @@ class CollisionAvoidance:
         self.damping = settings.damping
         self.lookahead = settings.lookahead
         self.max_rows = min(settings.max_rows, len(distances))
-        #: The distances at the last call [m] (their change: the approach speeds).
-        self._d_last = np.full(len(distances), np.nan)
+        #: Per pair: the distance at the last call [m] (its change: the approach speed),
+        #: scratch, the approach speed allowed at the last cycle [m/s] (INF: out of range).
+        #: One array, as the kernel takes them.
+        self._state = np.full((3, len(distances)), np.nan)
+        self._d_last = self._state[0]
         self._a_max_all = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
         nv = len(self._a_max_all)
         #: Scratch columns: (v_prev, ub + lb) and (a_max of the free joints, ub − lb).
@@ -107,7 +110,8 @@ class CollisionAvoidance:
         self._ah = np.zeros((nv, 2))
         self._ah[:, 0] = self._a_max_all
         #: Approach speed allowed per pair at the last cycle [m/s] (INF: out of range).
-        self.allowed = np.full(len(distances), INF)
+        self.allowed = self._state[2]
+        self.allowed[...] = INF
         #: The pairs in range this cycle (ascending), and those of the QP's rows (in row
         #: order: the pairs in range less those whose row the joint box implies).
         self.pairs = np.zeros(0, dtype=np.int64)
@@ -120,11 +124,11 @@ class CollisionAvoidance:
         #: The compiled path's pair buffers (two: this cycle's and the last one's) and
         #: settings (see :func:`damper_rows`).
         self._buffers = self._pair_buffers(self.max_rows)
+        #: See :func:`collision_rows`; the first seven are written at each call.
         self._settings = np.array(
-            [self.security, self.span, self.damping, dt, BRAKING_SHARE, INTERIOR,
-             BRAKE_MARGIN, MIN_REACH, IMPLIED, INF]
-        )  # fmt: skip
-        self._key = np.zeros(len(distances))
+            [0, 0, 0, 0, 0, 0, 0, BRAKING_SHARE, INTERIOR, BRAKE_MARGIN, MIN_REACH, IMPLIED, INF],
+            dtype=float,
+        )
         self._candidates = np.zeros(len(distances), dtype=np.int64)
         #: Acceleration limits of the joints, 0 for frozen ones [rad/s², m/s²] (contiguous).
         self._a_max = self._a_max_all.copy()
@@ -245,13 +249,14 @@ class CollisionAvoidance:
         lb = cycle.v_prev if cycle.lb is None else cycle.lb  # v_prev: unread
         ub = cycle.v_prev if cycle.ub is None else cycle.ub
         settings = self._settings  # the values of now (tests and tools change them)
-        settings[:4] = self.security, self.span, self.damping, self.dt
+        settings[:7] = (
+            self.influence, self.lookahead / self.dt, cap, self.security, self.span,
+            self.damping, self.dt,
+        )  # fmt: skip
         k, m = collision_rows(
-            dist.distances, self._d_last, self._key, self._candidates, self.influence,
-            self.lookahead / self.dt, cap, near, self.allowed, self.pairs, dist.support,
-            dist.normals, dist.points1, dist.points2, kernel.col_axis, kernel.col_origin,
-            kernel.col_kind, cycle.v_prev, lb, ub, box, self._a_max, settings,
-            rows.C, rows.lo, rows.hi, self._low, row_pairs,
+            dist.distances, self._state, self._candidates, settings, near, self.pairs,
+            dist.support, dist.witnesses, kernel.columns, kernel.column_kind, cycle.v_prev,
+            lb, ub, box, self._a_max, rows.C, rows.lo, rows.hi, self._low, row_pairs,
         )  # fmt: skip
         self.pairs = near[:k]
         self.row_pairs = row_pairs[:m]

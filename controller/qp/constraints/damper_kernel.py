@@ -56,43 +56,46 @@ def select_pairs(
 
 
 @_jit
-def damper_rows(
-    k: int,
-    near: np.ndarray,
+def collision_rows(
     d: np.ndarray,
-    allowed: np.ndarray,
+    state: np.ndarray,
+    candidates: np.ndarray,
+    settings: np.ndarray,
+    near: np.ndarray,
     old_pairs: np.ndarray,
     support: np.ndarray,
-    normals: np.ndarray,
-    points1: np.ndarray,
-    points2: np.ndarray,
-    col_axis: np.ndarray,
-    col_origin: np.ndarray,
-    col_kind: np.ndarray,
+    witness: np.ndarray,
+    columns: np.ndarray,
+    column_kind: np.ndarray,
     v_prev: np.ndarray,
     lb: np.ndarray,
     ub: np.ndarray,
     has_box: bool,
     a_max: np.ndarray,
-    settings: np.ndarray,
     C: np.ndarray,
     lo: np.ndarray,
     hi: np.ndarray,
     low: np.ndarray,
     row_pairs: np.ndarray,
-) -> int:
-    """Rows ``lo ≤ C v ≤ hi`` of the ``k`` pairs ``near[:k]`` less those the box implies,
-    their pairs in ``row_pairs`` and ``low`` (the least ``J_d v`` the box allows); returns
-    how many. ``allowed`` [m/s] per pair updated (``old_pairs``: last cycle's, back to inf
-    unless still in range). ``settings``: security, span, damping, dt, braking share,
-    interior, brake margin, min reach, implied tolerance, the rows' infinity
-    (:data:`~controller.qp.constraints.protocol.INF`)."""
-    security, span, damping, dt = settings[0], settings[1], settings[2], settings[3]
-    share, interior, margin, min_reach = settings[4], settings[5], settings[6], settings[7]
-    implied, inf = settings[8], settings[9]
+) -> tuple[int, int]:
+    """One cycle's rows: :func:`select_pairs` writes the ``k`` pairs in range into ``near``,
+    then rows ``lo ≤ C v ≤ hi`` of those the box does not imply, their pairs in
+    ``row_pairs`` and ``low`` (the least ``J_d v`` the box allows); returns ``(k, m)``, ``m``
+    the rows reported. ``state`` rows: the distances of the last call, scratch, the
+    approach speed ``allowed`` per pair [m/s] (``old_pairs``, last cycle's, back to inf
+    unless still in range). ``settings``: influence, look-ahead / dt, max rows, security,
+    span, damping, dt, braking share, interior, brake margin, min reach, implied tolerance,
+    the rows' infinity (:data:`~controller.qp.constraints.protocol.INF`). ``witness``,
+    ``columns``: :attr:`CollisionDistances.witnesses`, :attr:`CompiledPairs.columns`.
+    No bounds checks: ``near``, ``row_pairs``, ``low`` and the rows must hold max rows."""
+    d_last, allowed = state[0], state[2]
+    influence, horizon, max_rows = settings[0], settings[1], int(settings[2])
+    security, span, damping, dt = settings[3], settings[4], settings[5], settings[6]
+    share, interior, margin, min_reach = settings[7], settings[8], settings[9], settings[10]
+    implied, inf = settings[11], settings[12]
+    k = select_pairs(d, d_last, state[1], candidates, influence, horizon, max_rows, near)
     nv = C.shape[1]
-    jacobian_rows(near[:k], support, normals, points1, points2, col_axis, col_origin,
-                  col_kind, C)  # fmt: skip
+    jacobian_rows(near[:k], support, witness, columns, column_kind, C)
     now = np.empty(k)
     reach = np.empty(k)
     new = np.empty(k)
@@ -162,48 +165,4 @@ def damper_rows(
     for i in range(m, k):
         lo[i] = -inf
         hi[i] = inf
-    return m
-
-
-@_jit
-def collision_rows(
-    d: np.ndarray,
-    d_last: np.ndarray,
-    key: np.ndarray,
-    candidates: np.ndarray,
-    influence: float,
-    horizon: float,
-    max_rows: int,
-    near: np.ndarray,
-    allowed: np.ndarray,
-    old_pairs: np.ndarray,
-    support: np.ndarray,
-    normals: np.ndarray,
-    points1: np.ndarray,
-    points2: np.ndarray,
-    col_axis: np.ndarray,
-    col_origin: np.ndarray,
-    col_kind: np.ndarray,
-    v_prev: np.ndarray,
-    lb: np.ndarray,
-    ub: np.ndarray,
-    has_box: bool,
-    a_max: np.ndarray,
-    settings: np.ndarray,
-    C: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    low: np.ndarray,
-    row_pairs: np.ndarray,
-) -> tuple[int, int]:
-    """:func:`select_pairs` then :func:`damper_rows` (one call from Python): the pairs in
-    range (``near``) and the rows reported, their counts. No bounds checks: ``near``,
-    ``row_pairs``, ``low`` and the rows must hold ``max_rows``; ``key``, ``candidates`` one
-    value per pair."""
-    k = select_pairs(d, d_last, key, candidates, influence, horizon, max_rows, near)
-    m = damper_rows(
-        k, near, d, allowed, old_pairs, support, normals, points1, points2, col_axis,
-        col_origin, col_kind, v_prev, lb, ub, has_box, a_max, settings, C, lo, hi, low,
-        row_pairs,
-    )  # fmt: skip
     return k, m
