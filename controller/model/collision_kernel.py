@@ -359,6 +359,35 @@ def _segment_box_t(
 
 
 @_jit
+def _store(
+    k: int,
+    distance: float,
+    ux: float,
+    uy: float,
+    uz: float,
+    cx: float,
+    cy: float,
+    cz: float,
+    wx: float,
+    wy: float,
+    wz: float,
+    flip: bool,
+    d: np.ndarray,
+    n: np.ndarray,
+    p1: np.ndarray,
+    p2: np.ndarray,
+) -> None:
+    """Pair ``k``'s result: ``u`` the unit normal from the other shape to the first, ``c``
+    and ``w`` their witness points; ``flip``: the pair lists the other shape first."""
+    d[k] = distance
+    sign = -1.0 if flip else 1.0
+    n[k, 0], n[k, 1], n[k, 2] = sign * ux, sign * uy, sign * uz
+    first, second = (p2, p1) if flip else (p1, p2)
+    first[k, 0], first[k, 1], first[k, 2] = cx, cy, cz
+    second[k, 0], second[k, 1], second[k, 2] = wx, wy, wz
+
+
+@_jit
 def _capsule_box(
     k: int,
     cap: int,
@@ -422,15 +451,7 @@ def _capsule_box(
     # the capsule's witness: its segment point, the radius back along the normal
     sx, sy, sz = a_x + t * (b_x - a_x), a_y + t * (b_y - a_y), a_z + t * (b_z - a_z)
     cx, cy, cz = sx - r * ux, sy - r * uy, sz - r * uz
-    d[k] = signed - r
-    if flip:
-        n[k, 0], n[k, 1], n[k, 2] = -ux, -uy, -uz
-        p1[k, 0], p1[k, 1], p1[k, 2] = wx, wy, wz
-        p2[k, 0], p2[k, 1], p2[k, 2] = cx, cy, cz
-    else:
-        n[k, 0], n[k, 1], n[k, 2] = ux, uy, uz
-        p1[k, 0], p1[k, 1], p1[k, 2] = cx, cy, cz
-        p2[k, 0], p2[k, 1], p2[k, 2] = wx, wy, wz
+    _store(k, signed - r, ux, uy, uz, cx, cy, cz, wx, wy, wz, flip, d, n, p1, p2)
 
 
 @_jit
@@ -482,15 +503,7 @@ def _halfspace(
     gap = low - level
     cx, cy, cz = px - r * ux, py - r * uy, pz - r * uz
     wx, wy, wz = px - gap * ux, py - gap * uy, pz - gap * uz
-    d[k] = gap - r
-    if flip:
-        n[k, 0], n[k, 1], n[k, 2] = -ux, -uy, -uz
-        p1[k, 0], p1[k, 1], p1[k, 2] = wx, wy, wz
-        p2[k, 0], p2[k, 1], p2[k, 2] = cx, cy, cz
-    else:
-        n[k, 0], n[k, 1], n[k, 2] = ux, uy, uz
-        p1[k, 0], p1[k, 1], p1[k, 2] = cx, cy, cz
-        p2[k, 0], p2[k, 1], p2[k, 2] = wx, wy, wz
+    _store(k, gap - r, ux, uy, uz, cx, cy, cz, wx, wy, wz, flip, d, n, p1, p2)
 
 
 # ------------------------------------------------------------------------------- Jacobian
