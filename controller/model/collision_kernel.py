@@ -68,6 +68,22 @@ def _jit(function: F) -> F:
     return cast(F, numba.njit(cache=True, nogil=True, error_model="numpy")(function))
 
 
+@_jit
+def _compose(world: np.ndarray, frame: np.ndarray, out: np.ndarray) -> None:
+    """``out`` := ``world`` ∘ ``frame``, placements as rotation rows 0-2 and translation
+    row 3 (``frame`` may have more rows: only 0-3 are read)."""
+    for a in range(3):
+        s = world[3, a]
+        for b in range(3):
+            s += world[a, b] * frame[3, b]
+        out[3, a] = s
+        for b in range(3):
+            s = 0.0
+            for c in range(3):
+                s += world[a, c] * frame[c, b]
+            out[a, b] = s
+
+
 # ------------------------------------------------------------------------------- update
 @_jit
 def update(
@@ -99,24 +115,17 @@ def update(
       ``size`` per shape: capsule (radius, half length), sphere (radius, 0), box (half
       sides), half-space (normal, offset) in its own frame. ``OTHER`` rows are left as
       they are."""
-    r = np.empty((3, 3))
+    r = np.empty((4, 3))  # a joint's placement before its motion
     for j in range(1, joint_int.shape[0]):
         p, kind, v = joint_int[j, 0], joint_int[j, 1], joint_int[j, 2]
-        for a in range(3):
-            s = joint_world[p, 3, a]
-            for b in range(3):
-                s += joint_world[p, a, b] * joint_frame[j, 3, b]
-            joint_world[j, 3, a] = s
-            for b in range(3):
-                s = 0.0
-                for c in range(3):
-                    s += joint_world[p, a, c] * joint_frame[j, c, b]
-                r[a, b] = s
+        _compose(joint_world[p], joint_frame[j], r)
         x = q[v]
         ux, uy, uz = joint_frame[j, 4, 0], joint_frame[j, 4, 1], joint_frame[j, 4, 2]
         for a in range(3):
             columns[v, 0, a] = r[a, 0] * ux + r[a, 1] * uy + r[a, 2] * uz
         column_kind[v] = kind
+        for a in range(3):
+            joint_world[j, 3, a] = r[3, a]
         if kind == REVOLUTE:
             co, si = math.cos(x), math.sin(x)
             t = 1.0 - co
@@ -136,17 +145,7 @@ def update(
         for a in range(3):
             columns[v, 1, a] = joint_world[j, 3, a]
     for g in range(shape_int.shape[0]):
-        j = shape_int[g, 0]
-        for a in range(3):
-            s = joint_world[j, 3, a]
-            for b in range(3):
-                s += joint_world[j, a, b] * shape_frame[g, 3, b]
-            shape_world[g, 3, a] = s
-            for b in range(3):
-                s = 0.0
-                for c in range(3):
-                    s += joint_world[j, a, c] * shape_frame[g, c, b]
-                shape_world[g, a, b] = s
+        _compose(joint_world[shape_int[g, 0]], shape_frame[g], shape_world[g])
     kinds = shape_int[:, 1]
     world_rot = shape_world[:, :3]
     world_pos = shape_world[:, 3]
