@@ -10,6 +10,22 @@ import pytest
 from tests.support import ROBOT_IDS
 
 
+@pytest.fixture(scope="session", autouse=True)
+def compiled_collision_kernels() -> None:
+    """Compile numba's collision kernels once, first, into its on-disk cache: daemons the
+    tests start in other processes then load them instead of each compiling them (~15 s of
+    CPU on this machine) during their start-up."""
+    from controller.model.collision_pairs import robot_distances
+    from controller.model.kinematics import Kinematics
+    from controller.model.robot import load_robot
+    from controller.qp.constraints.collision import CollisionAvoidance
+
+    kin = Kinematics(load_robot("pa10"))
+    distances = robot_distances(kin)  # compiles the distance kernels
+    settings = kin.robot.profile.collision_avoidance
+    CollisionAvoidance(kin, distances, settings, 0.002)  # and the rows' kernel
+
+
 @pytest.fixture(params=ROBOT_IDS)
 def robot_id(request: pytest.FixtureRequest) -> str:
     return str(request.param)

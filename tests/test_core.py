@@ -308,3 +308,24 @@ def test_collision_distances_are_updated_once_per_cycle_while_the_ik_solves():
     for n in range(1, 21):
         core.cycle()
         assert len(seen) == n
+
+
+def test_the_control_cycle_never_waits_for_a_compiler():
+    """The collision kernels are compiled (or loaded from numba's cache) when the core is
+    built: a cycle that solves, with the rows' kernel called every cycle, adds no signature."""
+    from controller.model import collision_kernel
+    from controller.qp.constraints import damper_kernel
+
+    if not collision_kernel.available():
+        pytest.skip("numba not installed")
+    core = make_core("smartpal5")
+    assert core.collision is not None and core.collision.distances.compiled
+    kernels = (collision_kernel.update, collision_kernel.jacobian_rows, damper_kernel.collision_rows)
+    before = [len(k.signatures) for k in kernels]
+    assert all(before)
+    j1 = np.array([core.kin.index("r_arm_j1")])
+    goal = core.kin.q[j1] + 0.2
+    core.start(JointMotion(core.kin, DT, j1, goal, np.array([0.5]), np.array([1.0])))
+    for _ in range(30):
+        core.cycle()
+    assert [len(k.signatures) for k in kernels] == before

@@ -182,6 +182,9 @@ class CollisionDistances:
                 self.kernel = CompiledPairs(model, self.geometry, np.array(shapes))
             except Unsupported:
                 self.kernel = None
+            else:  # compile (or load from the cache) now, not in a control cycle
+                self.compute(pin.neutral(model))
+                self.jacobian_into(np.zeros(min(count, 1), dtype=np.int64), np.zeros((1, model.nv)))
 
     @property
     def compiled(self) -> bool:

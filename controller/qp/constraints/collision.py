@@ -132,6 +132,24 @@ class CollisionAvoidance:
         self._candidates = np.zeros(len(distances), dtype=np.int64)
         #: Acceleration limits of the joints, 0 for frozen ones [rad/s², m/s²] (contiguous).
         self._a_max = self._a_max_all.copy()
+        if distances.kernel is not None:
+            self._warm_up(nv)
+
+    def _warm_up(self, nv: int) -> None:
+        """Compile (or load from the cache) the rows kernel for the arrays a cycle passes, on
+        scratch copies: the first control cycle must not wait for it."""
+        rows = RowBlock(
+            np.zeros((self.max_rows, nv)), np.zeros(self.max_rows), np.zeros(self.max_rows)
+        )
+        zero = np.zeros(nv)
+        state, allowed = self._state.copy(), self.allowed.copy()
+        for box in (False, True):
+            cycle = CycleState(None, zero, zero, zero if box else None, zero if box else None)  # type: ignore[arg-type]
+            self.compute_qp_inequalities(cycle, rows)
+        self._state[...] = state
+        self.allowed[...] = allowed
+        self.pairs = self.row_pairs = np.zeros(0, dtype=np.int64)
+        self._rows = None
 
     @staticmethod
     def _pair_buffers(size: int) -> list[tuple[np.ndarray, np.ndarray]]:
