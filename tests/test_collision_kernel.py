@@ -8,13 +8,14 @@ import pinocchio as pin
 import pytest
 
 from controller.model import collision_kernel as ck
+from controller.model import jit
 from controller.model.collision import CollisionDistances
 from controller.model.collision_pairs import robot_distances
 from controller.model.kinematics import Kinematics
 from controller.model.obstacles import Obstacle
 from tests.support import kinematics
 
-pytestmark = pytest.mark.skipif(not ck.available(), reason="numba not installed")
+pytestmark = pytest.mark.skipif(not jit.available(), reason="numba not installed")
 
 ROBOTS = ["smartpal5", "pa10", "seednoid"]  # the robots with collision shapes
 #: One obstacle of each kind, near the arms (table and mast tilted: no axis-aligned luck).
@@ -181,7 +182,7 @@ def test_segment_box_minimum_is_exact() -> None:
 
 def test_turned_off_by_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("IMOTION_JIT", "0")
-    assert not ck.available()
+    assert not jit.available()
     assert not robot_distances(kinematics("pa10")).compiled
 
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.model import collision_kernel
+from controller.model import jit
 from controller.qp.constraints import ConstraintSetup, CycleState, JointBox, RowBlock
 from controller.qp.constraints.collision import CollisionAvoidance, collision_avoidance
 from tests.support import kinematics
 
-pytestmark = pytest.mark.skipif(not collision_kernel.available(), reason="numba not installed")
+pytestmark = pytest.mark.skipif(not jit.available(), reason="numba not installed")
 
 DT = 0.002
 ROWS = 200  # more than the robots have pairs: nothing is cut

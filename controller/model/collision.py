@@ -21,7 +21,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from controller.model import collision_kernel
+from controller.model import jit
 from controller.model.collision_kernel import CompiledPairs, Unsupported
 from controller.model.collision_shapes import CollisionShape, align_z, collision_shapes
 from controller.model.model_source import ModelSource
@@ -177,7 +177,7 @@ class CollisionDistances:
         #: The compiled kernels' model and work arrays (None: coal for every pair, see
         #: :attr:`compiled`).
         self.kernel: CompiledPairs | None = None
-        if collision_kernel.available():
+        if jit.available():
             try:
                 self.kernel = CompiledPairs(model, self.geometry, np.array(shapes))
             except Unsupported:

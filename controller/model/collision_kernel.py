@@ -4,16 +4,15 @@
 distance, witness points and normal of each checked shape pair and the Jacobian rows of the
 closest ones. Through coal and NumPy that costs ~190 µs per cycle on SmartPal V (196 shape
 pairs; most of it Python reading coal's results one by one and small-array overhead); this
-module does the same work in two compiled calls (~10 µs):
+module does the same work in compiled code (~13 µs for the distances):
 
-* :func:`forward`: the joint placements of the configuration (the Pinocchio model's own
+* :func:`update`: the joint placements of the configuration (the Pinocchio model's own
   joint placements and 1-dof revolute/prismatic joints), each joint's world axis and origin
-  (its Jacobian column), and every shape's world placement;
-* :func:`pair_distances`: closed forms per shape kind: capsule/sphere pairs (closest points of
-  two segments), capsule/sphere–box (exact minimum of the piecewise quadratic squared
-  distance along the segment; golden-section search on the signed distance when the segment
-  enters the box), anything–half-space (the lowest point); box–box pairs are left to coal
-  (the caller);
+  (its Jacobian column), every shape's world placement, then closed forms per pair kind:
+  capsule/sphere pairs (closest points of two segments), capsule/sphere–box (exact minimum
+  of the piecewise quadratic squared distance along the segment; golden-section search on
+  the signed distance when the segment enters the box), anything–half-space (the lowest
+  point); box–box pairs are left to coal (the caller);
 * :func:`jacobian_rows`: ``n^T (J_p1 − J_p2)`` from the joint axes, over the columns of each
   pair's support mask.
 
@@ -21,54 +20,34 @@ Conventions are coal's as :class:`CollisionDistances` reads them: signed distanc
 (negative when the shapes overlap), ``n`` the unit normal from shape 2 to shape 1, witness
 points ``p1 = p2 + d n`` (world, [m]).
 
-numba is a dependency; :func:`available` is False where it does not import or when the
-environment sets ``IMOTION_JIT=0``, and :class:`CollisionDistances` then uses coal for every
-pair (the same results, slower; tests run both). The first use compiles the kernels (a few
-seconds; cached next to this file for later processes).
+Compiled with :mod:`controller.model.jit`; where :func:`~controller.model.jit.available` is
+False, :class:`CollisionDistances` uses coal for every pair (the same results, slower; tests
+run both).
 """
 
 from __future__ import annotations
 
 import math
-import os
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
+from typing import Any
 
 import coal
 import numpy as np
 import pinocchio as pin
 
-try:  # pragma: no cover - exercised by the import itself
-    import numba
-except ImportError:  # pragma: no cover - the fallback is tested with IMOTION_JIT=0
-    numba = None  # type: ignore[assignment]
-
-F = TypeVar("F", bound=Callable[..., Any])
+from controller.model.jit import jit
 
 #: Shape kinds of the kernels (a sphere is a capsule of length 0).
 CAPSULE, BOX, HALFSPACE = 0, 1, 2
 #: Joint kinds: the column of a revolute joint turns points about its axis, a prismatic one
 #: moves them along it.
 REVOLUTE, PRISMATIC = 0, 1
-#: Pairs :func:`pair_distances` computes, and pairs left to the caller (box–box).
+#: Pairs :func:`update` computes, and pairs left to the caller (box–box).
 KERNEL, OTHER = 0, 1
 #: Golden-section steps for a segment inside a box (the interval shrinks 0.618x per step).
 GOLDEN_STEPS = 60
 
 
-def available() -> bool:
-    """Whether the compiled kernels can be used (numba imports and ``IMOTION_JIT`` is not 0)."""
-    return numba is not None and os.environ.get("IMOTION_JIT", "1") != "0"
-
-
-def _jit(function: F) -> F:
-    """Compile with numba where it exists (cached on disk, no Python objects, GIL released)."""
-    if numba is None:  # pragma: no cover
-        return function
-    return cast(F, numba.njit(cache=True, nogil=True, error_model="numpy")(function))
-
-
-@_jit
+@jit
 def _compose(world: np.ndarray, frame: np.ndarray, out: np.ndarray) -> None:
     """``out`` := ``world`` ∘ ``frame``, placements as rotation rows 0-2 and translation
     row 3 (``frame`` may have more rows: only 0-3 are read)."""
@@ -85,7 +64,7 @@ def _compose(world: np.ndarray, frame: np.ndarray, out: np.ndarray) -> None:
 
 
 # ------------------------------------------------------------------------------- update
-@_jit
+@jit
 def update(
     q: np.ndarray,
     joint_int: np.ndarray,
@@ -170,18 +149,18 @@ def update(
 
 
 # ------------------------------------------------------------------------------ distances
-@_jit
+@jit
 def _clamp01(x: float) -> float:
     return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
 
 
-@_jit
+@jit
 def _segment_ends(g: int, seg: np.ndarray) -> Any:
     """A capsule's (or sphere's) segment end points and radius [m] (see :func:`_segments`)."""
     return seg[g, 0], seg[g, 1], seg[g, 2], seg[g, 3], seg[g, 4], seg[g, 5], seg[g, 6]
 
 
-@_jit
+@jit
 def _segments(
     kinds: np.ndarray, world_rot: np.ndarray, world_pos: np.ndarray, size: np.ndarray,
     seg: np.ndarray,
@@ -199,7 +178,7 @@ def _segments(
         seg[g, 6] = size[g, 0]
 
 
-@_jit
+@jit
 def _normal_or_any(dx: float, dy: float, dz: float, ex: float, ey: float, ez: float) -> Any:
     """``(dx, dy, dz)`` normalised with its length; when it is ~0 (shapes' cores meet), a unit
     vector across the direction ``e`` (or z), length 0."""
@@ -217,7 +196,7 @@ def _normal_or_any(dx: float, dy: float, dz: float, ex: float, ey: float, ez: fl
     return cx / n, cy / n, cz / n, 0.0
 
 
-@_jit
+@jit
 def _capsules(
     k: int,
     g1: int,
@@ -273,7 +252,7 @@ def _capsules(
     p2[k, 0], p2[k, 1], p2[k, 2] = c2x + r2 * ux, c2y + r2 * uy, c2z + r2 * uz
 
 
-@_jit
+@jit
 def _box_signed(x: float, y: float, z: float, hx: float, hy: float, hz: float) -> float:
     """Signed distance [m] of a point to a box centred at 0 with half sides ``h`` (box frame)."""
     qx, qy, qz = abs(x) - hx, abs(y) - hy, abs(z) - hz
@@ -281,7 +260,7 @@ def _box_signed(x: float, y: float, z: float, hx: float, hy: float, hz: float) -
     return math.sqrt(ox * ox + oy * oy + oz * oz) + min(max(qx, max(qy, qz)), 0.0)
 
 
-@_jit
+@jit
 def _segment_box_t(
     ax: float,
     ay: float,
@@ -357,7 +336,7 @@ def _segment_box_t(
     return 0.5 * (lo + hi)
 
 
-@_jit
+@jit
 def _store(
     k: int,
     distance: float,
@@ -386,7 +365,7 @@ def _store(
     second[k, 0], second[k, 1], second[k, 2] = wx, wy, wz
 
 
-@_jit
+@jit
 def _capsule_box(
     k: int,
     cap: int,
@@ -453,7 +432,7 @@ def _capsule_box(
     _store(k, signed - r, ux, uy, uz, cx, cy, cz, wx, wy, wz, flip, d, n, p1, p2)
 
 
-@_jit
+@jit
 def _halfspace(
     k: int,
     shape: int,
@@ -506,7 +485,7 @@ def _halfspace(
 
 
 # ------------------------------------------------------------------------------- Jacobian
-@_jit
+@jit
 def jacobian_rows(
     index: np.ndarray,
     support: np.ndarray,
@@ -548,7 +527,7 @@ class Unsupported(ValueError):
 
 
 def _shape_row(geometry: Any) -> tuple[int, np.ndarray]:
-    """Kind and ``size`` row (see :func:`pair_distances`) of a coal geometry."""
+    """Kind and ``size`` row (see :func:`update`) of a coal geometry."""
     size = np.zeros(4)
     if isinstance(geometry, coal.Capsule):
         size[:2] = geometry.radius, geometry.halfLength

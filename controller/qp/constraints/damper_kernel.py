@@ -14,10 +14,11 @@ import math
 
 import numpy as np
 
-from controller.model.collision_kernel import _jit, jacobian_rows
+from controller.model.collision_kernel import jacobian_rows
+from controller.model.jit import jit
 
 
-@_jit
+@jit
 def select_pairs(
     d: np.ndarray,
     d_last: np.ndarray,
@@ -55,7 +56,7 @@ def select_pairs(
     return max_rows
 
 
-@_jit
+@jit
 def collision_rows(
     d: np.ndarray,
     state: np.ndarray,
