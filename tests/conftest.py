@@ -45,11 +45,12 @@ def corba_daemon() -> Iterator[Any]:
         daemon.close()
 
 
-@pytest.fixture(params=["compiled", "coal"])
-def collision_backend(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
-    """Run a test with the collision distances of the compiled kernels and again with coal
-    alone (``IMOTION_JIT=0``, the fallback where numba is missing)."""
-    if request.param == "coal":
+@pytest.fixture(params=["compiled", "python"])
+def jit_backend(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Run a test with the compiled kernels (controller.model.jit) and again without them
+    (``IMOTION_JIT=0``: coal, NumPy and Pinocchio alone, the fallback where numba is
+    missing)."""
+    if request.param == "python":
         monkeypatch.setenv("IMOTION_JIT", "0")
     else:
         monkeypatch.delenv("IMOTION_JIT", raising=False)

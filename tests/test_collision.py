@@ -19,7 +19,7 @@ from controller.model.profile import RobotProfile
 from controller.model.robot import load_robot
 
 #: Every test with the compiled kernels and with coal alone.
-pytestmark = pytest.mark.usefixtures("collision_backend")
+pytestmark = pytest.mark.usefixtures("jit_backend")
 
 ROBOTS = robot_ids()
 #: Central-difference step [rad or m] and the agreement asked of the analytic rows: with a

@@ -311,9 +311,11 @@ def test_collision_distances_are_updated_once_per_cycle_while_the_ik_solves():
 
 
 def test_the_control_cycle_never_waits_for_a_compiler():
-    """The collision kernels are compiled (or loaded from numba's cache) when the core is
-    built: a cycle that solves, with the rows' kernel called every cycle, adds no signature."""
-    from controller.model import collision_kernel, jit
+    """The compiled kernels (collision, elbow) are compiled or loaded from numba's cache when
+    the core is built: cycles that solve (an elbow swing: every kernel runs) add no signature."""
+    from controller.model import collision_kernel, elbow, jit
+    from controller.model.redundant_axes import elbow_axis
+    from controller.motion.motions import CPHoldMotion
     from controller.qp.constraints import damper_kernel
 
     if not jit.available():
@@ -324,12 +326,15 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         collision_kernel.update,
         collision_kernel.jacobian_rows,
         damper_kernel.collision_rows,
+        elbow.elbow_kernel,
     )
     before = [len(k.signatures) for k in kernels]
     assert all(before)
-    j1 = np.array([core.kin.index("r_arm_j1")])
-    goal = core.kin.q[j1] + 0.2
-    core.start(JointMotion(core.kin, DT, j1, goal, np.array([0.5]), np.array([1.0])))
+    side = RightLeft.RIGHT
+    goal = core.kin.elbow_angle(side) + 0.1
+    speed = np.array([0.3])
+    core.start(CPHoldMotion(core.kin, DT, (side,), {elbow_axis(side): goal}, speed, 2 * speed))
     for _ in range(30):
         core.cycle()
+    assert core.motion is not None  # still swinging: every cycle solved
     assert [len(k.signatures) for k in kernels] == before

@@ -12,6 +12,9 @@ from controller.model.kinematics import Kinematics
 from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
 from tests.support import kinematics, random_configuration
 
+#: Every test with the compiled elbow kernel and with the Python/Pinocchio code.
+pytestmark = pytest.mark.usefixtures("jit_backend")
+
 FD_STEP = 1e-6
 FD_TOL = 1e-6
 SAMPLES = 25
@@ -382,3 +385,34 @@ def test_a_control_cycle_computes_each_elbow_once():
     assert cycles > 10
     assert calls["swivel"] <= len(core.kin.arms) * cycles
     assert calls["jacobian"] <= len(core.kin.arms) * cycles
+
+
+def test_compiled_elbow_equals_the_python_swivel(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The compiled kernel's angle, offset and row against swivel() and the frame Jacobians."""
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(12)
+    for robot_id in ("smartpal5", "seednoid", "pa10"):
+        compiled = kinematics(robot_id)
+        monkeypatch.setenv("IMOTION_JIT", "0")
+        python = kinematics(robot_id)
+        monkeypatch.delenv("IMOTION_JIT")
+        assert compiled._elbow_kernel and not python._elbow_kernel
+        for _ in range(50):
+            q = random_configuration(compiled, rng)
+            compiled.update(q)
+            python.update(q)
+            for side in compiled.arms:
+                if not compiled.has_elbow(side):
+                    continue
+                assert compiled.elbow_angle(side) == pytest.approx(
+                    python.elbow_angle(side), abs=1e-12
+                )
+                assert compiled.elbow_offset(side) == pytest.approx(
+                    python.elbow_offset(side), abs=1e-12
+                )
+                np.testing.assert_allclose(
+                    compiled.elbow_jacobian(side), python.elbow_jacobian(side), atol=1e-9
+                )

@@ -21,7 +21,7 @@ from tests.support import kinematics
 from tests.test_collision import toy
 
 #: Every test with the compiled kernels and with coal alone.
-pytestmark = pytest.mark.usefixtures("collision_backend")
+pytestmark = pytest.mark.usefixtures("jit_backend")
 
 DT = 0.002
 #: d_i, d_s [m], ξ [m/s] of the toy; its one joint accelerates at A [m/s²].

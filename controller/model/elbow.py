@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from controller.model.jit import jit
+
 #: Distance [m] of the elbow from the shoulder-wrist line below which the gradient is clamped.
 MIN_OFFSET = 1e-6
 #: ``1 + f·u`` below which ``u`` counts as the singular direction ``-forward``.
@@ -139,3 +141,85 @@ def swivel(
     grad_e = np.array(grad_a)
     grad_w = np.array(grad_d)
     return Swivel(angle, -grad_e - grad_w, grad_e, grad_w, math.sqrt(r2))
+
+
+@jit
+def elbow_kernel(
+    points: np.ndarray,
+    base: np.ndarray,
+    directions: np.ndarray,
+    jac: np.ndarray,
+    columns: np.ndarray,
+    masks: np.ndarray,
+    row: np.ndarray,
+    values: np.ndarray,
+) -> None:
+    """:func:`swivel` and the angle's Jacobian row in one compiled call.
+
+    ``points``: shoulder, elbow, wrist (3 x 3, world [m]); ``directions``: forward, down (unit,
+    in the arm base frame, whose world rotation is ``base``); ``jac``: the world Jacobian
+    ``data.J`` after ``computeJointJacobians`` (6 x nv: the velocity at the world origin,
+    then the angular velocity, per column); ``columns``: the arm's velocity columns,
+    ``masks`` (3 x len(columns)): 1 where a column moves the shoulder, elbow, wrist point.
+    Writes ``row[columns]`` [rad per unit of q] (a point ``p`` moves at ``v_O + ω × p``, so
+    ``g·ṗ = g·v_O + (p × g)·ω``) and ``values`` = (angle [rad], offset [m]). Same arithmetic
+    as :func:`swivel` (tests compare them)."""
+    sx, sy, sz = points[0, 0], points[0, 1], points[0, 2]
+    fx, fy, fz = base @ directions[0]
+    tx, ty, tz = base @ directions[1]
+    dx, dy, dz = points[2, 0] - sx, points[2, 1] - sy, points[2, 2] - sz
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    ux, uy, uz = dx / length, dy / length, dz / length
+    ax, ay, az = points[1, 0] - sx, points[1, 1] - sy, points[1, 2] - sz
+    one_c = 1.0 + fx * ux + fy * uy + fz * uz
+    pole = one_c < POLE_EPS
+    ut = ux * tx + uy * ty + uz * tz
+    if pole:
+        vx, vy, vz, g = -tx, -ty, -tz, 0.0
+    else:
+        g = ut / one_c
+        vx, vy, vz = tx - g * (fx + ux), ty - g * (fy + uy), tz - g * (fz + uz)
+    bx, by, bz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx  # u × v
+    x = vx * ax + vy * ay + vz * az
+    y = bx * ax + by * ay + bz * az
+    r2 = x * x + y * y
+    den = max(r2, MIN_OFFSET * MIN_OFFSET)
+    gex, gey, gez = (x * bx - y * vx) / den, (x * by - y * vy) / den, (x * bz - y * vz) / den
+    vax, vay, vaz = vy * az - vz * ay, vz * ax - vx * az, vx * ay - vy * ax  # v × a
+    if pole:
+        adx = ady = adz = 0.0
+        aux = auy = auz = 0.0
+    else:
+        k1, k2 = 1.0 / one_c, ut / (one_c * one_c)
+        dgx, dgy, dgz = tx * k1 - fx * k2, ty * k1 - fy * k2, tz * k1 - fz * k2
+        pux, puy, puz = fx + ux, fy + uy, fz + uz
+        cux, cuy, cuz = ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux  # a × u
+        c_a = ax * pux + ay * puy + az * puz
+        c_au = cux * pux + cuy * puy + cuz * puz
+        adx, ady, adz = -c_a * dgx - g * ax, -c_a * dgy - g * ay, -c_a * dgz - g * az
+        aux, auy, auz = -c_au * dgx - g * cux, -c_au * dgy - g * cuy, -c_au * dgz - g * cuz
+    dbx, dby, dbz = vax + aux, vay + auy, vaz + auz
+    px, py, pz = (x * dbx - y * adx) / den, (x * dby - y * ady) / den, (x * dbz - y * adz) / den
+    along = px * ux + py * uy + pz * uz
+    gwx, gwy, gwz = (
+        (px - along * ux) / length,
+        (py - along * uy) / length,
+        (pz - along * uz) / length,
+    )
+    values[0] = math.atan2(y, x)
+    values[1] = math.sqrt(r2)
+    grads = ((-gex - gwx, -gey - gwy, -gez - gwz), (gex, gey, gez), (gwx, gwy, gwz))
+    for c in range(columns.shape[0]):
+        col = columns[c]
+        total = 0.0
+        for i in range(3):
+            if masks[i, c] == 0.0:
+                continue
+            gx, gy, gz = grads[i]
+            qx, qy, qz = points[i, 0], points[i, 1], points[i, 2]
+            # g · v_O + (p × g) · ω
+            total += gx * jac[0, col] + gy * jac[1, col] + gz * jac[2, col]
+            total += (qy * gz - qz * gy) * jac[3, col]
+            total += (qz * gx - qx * gz) * jac[4, col]
+            total += (qx * gy - qy * gx) * jac[5, col]
+        row[col] = total

@@ -19,7 +19,9 @@ velocity second, both expressed in the axes of the requested frame.
 Per-update cache: the elbow swivel (angle, offset, gradient) and Jacobian, the vehicle pose
 and Jacobian are computed at most once per :meth:`Kinematics.update` however many tasks,
 constraints and motions ask (issue 14); the composite waist rows once for good. Arrays
-returned from the cache are read-only: copy before modifying.
+returned from the cache are read-only: copy before modifying. With compiled kernels
+(:mod:`controller.model.jit`) the elbow's angle, offset and Jacobian row come from one call
+of :func:`~controller.model.elbow.elbow_kernel`, from the world Jacobian the update left.
 """
 
 from __future__ import annotations
@@ -28,9 +30,14 @@ import numpy as np
 import pinocchio as pin
 
 from controller.conversions import offset_to_se3
-from controller.model.elbow import Swivel, swivel
+from controller.model import jit
+from controller.model.elbow import Swivel, elbow_kernel, swivel
 from controller.model.robot import Robot
 from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
+
+#: The swivel's point gradients where the compiled kernel computed the Jacobian row instead.
+_NO_GRADIENT = np.full(3, np.nan)
+_NO_GRADIENT.flags.writeable = False
 
 
 class Kinematics:
@@ -95,8 +102,23 @@ class Kinematics:
         self._lumbar_rows: dict[LumbarAxis, np.ndarray] = {}
         self.model = model
         self.data = model.createData()
+        #: With compiled kernels: per arm its columns, which of them move the shoulder, elbow
+        #: and wrist points, and buffers (see :func:`controller.model.elbow.elbow_kernel`).
+        self._elbow_kernel: dict[RightLeft, tuple[np.ndarray, ...]] = {}
+        if jit.available():
+            column_joint = {model.joints[j].idx_v: j for j in range(1, model.njoints)}
+            for side, (_, *points) in self._elbow_frames.items():
+                cols = self._units[UnitType[f"{side.name}_ARM"]].astype(np.int64)
+                supports = [set(model.supports[model.frames[f].parentJoint]) for f in points]
+                masks = np.array(
+                    [[float(column_joint[c] in moves) for c in cols.tolist()] for moves in supports]
+                )
+                directions = np.array(self._elbow_dirs[side])  # forward, down (arm base)
+                self._elbow_kernel[side] = (cols, masks, np.zeros((3, 3)), directions, np.zeros(2))
         self._q = pin.neutral(model)
         self.update(self._q)
+        for side in self._elbow_kernel:  # compile (or load) now, not in a control cycle
+            self._compute_swivel(side)
         self._original_theta = 0.0
         self._set_original(self.data.oMf[self._body_frame].copy())
 
@@ -254,9 +276,23 @@ class Kinematics:
         forward, down = self._elbow_dirs[side]
         p = self.data.oMf
         r_base = p[base].rotation
-        return swivel(
-            p[fs].translation, p[fe].translation, p[fw].translation, r_base @ forward, r_base @ down
-        )
+        compiled = self._elbow_kernel.get(side)
+        if compiled is None:
+            return swivel(
+                p[fs].translation,
+                p[fe].translation,
+                p[fw].translation,
+                r_base @ forward,
+                r_base @ down,
+            )
+        # compiled: the angle, the offset and the Jacobian row in one call (no gradients)
+        cols, masks, points, directions, values = compiled
+        points[0], points[1], points[2] = p[fs].translation, p[fe].translation, p[fw].translation
+        row = np.zeros(self.nv)
+        elbow_kernel(points, r_base, directions, self.data.J, cols, masks, row, values)
+        row.flags.writeable = False
+        self._elbow_jac_cache[side] = row
+        return Swivel(float(values[0]), _NO_GRADIENT, _NO_GRADIENT, _NO_GRADIENT, float(values[1]))
 
     def elbow_angle(self, side: RightLeft) -> float:
         """Elbow (swivel) angle [rad]; see :mod:`controller.model.elbow` for the definition."""
@@ -271,6 +307,9 @@ class Kinematics:
 
         Read-only (cached until the next :meth:`update`)."""
         cached = self._elbow_jac_cache.get(side)
+        if cached is None:
+            self._swivel(side)  # the compiled path computes the row with the angle
+            cached = self._elbow_jac_cache.get(side)
         if cached is None:
             cached = self._elbow_jac_cache[side] = self._compute_elbow_jacobian(side)
         return cached
