@@ -316,7 +316,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     from controller.model import collision_kernel, elbow, jit
     from controller.model.redundant_axes import elbow_axis
     from controller.motion.motions import CPHoldMotion
-    from controller.qp.constraints import damper_kernel
+    from controller.qp.constraints import damper_kernel, joint_box
 
     if not jit.available():
         pytest.skip("numba not installed")
@@ -327,6 +327,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         collision_kernel.jacobian_rows,
         damper_kernel.collision_rows,
         elbow.elbow_kernel,
+        joint_box.box_bounds,
     )
     before = [len(k.signatures) for k in kernels]
     assert all(before)

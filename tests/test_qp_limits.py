@@ -181,3 +181,36 @@ def test_differential_base_row_forbids_sideways_motion():
     sideways[[vx, vy]] = -math.sin(0.7), math.cos(0.7)
     assert abs(C[-1] @ forward) < 1e-15
     assert abs(C[-1] @ sideways - 1.0) < 1e-15
+
+
+def test_the_compiled_box_equals_the_numpy_one():
+    """box_bounds (numba) against the NumPy code, bit for bit: random positions in, at and
+    beyond the limits, NaN and inf, velocities beyond the limits, frozen joints."""
+    import pytest
+
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("numba not installed")
+    kin = kinematics("smartpal5")  # its vehicle joints have unbounded positions
+    compiled, plain = JointBox(kin, 0.001), JointBox(kin, 0.001)
+    plain._compiled = False
+    rng = np.random.default_rng(3)
+    bounded = np.isfinite(compiled.q_max - compiled.q_min)
+    lo = np.where(bounded, compiled.q_min, -10.0)
+    hi = np.where(bounded, compiled.q_max, 10.0)
+    for trial in range(400):
+        frozen = rng.random(kin.nv) < 0.2
+        for box in (compiled, plain):
+            box.configure(kin, ConstraintSetup(frozen))
+        q = lo + rng.uniform(-0.1, 1.1, kin.nv) * (hi - lo)
+        at_limit = rng.random(kin.nv) < 0.1
+        q[at_limit] = hi[at_limit]
+        v = rng.normal(0.0, 1.5, kin.nv) * compiled.v_max
+        if trial % 50 == 0:
+            q[trial % kin.nv] = np.nan
+        if trial % 50 == 25:
+            v[trial % kin.nv] = np.inf
+        a, b = compiled.compute_qp_bounds(q, v), plain.compute_qp_bounds(q, v)
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])

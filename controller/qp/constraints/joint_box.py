@@ -15,8 +15,11 @@ crosses (``lb ≤ ub``), and a frozen joint's ``lb = ub`` is its velocity this c
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from controller.model import jit
 from controller.model.kinematics import Kinematics
 from controller.qp.constraints.braking import BRAKING_SHARE
 from controller.qp.constraints.protocol import ConstraintSetup, Level, Relaxation
@@ -48,6 +51,10 @@ class JointBox:
         #: Deceleration [rad/s², m/s²] the braking distance is planned with.
         self.a_brake = BRAKING_SHARE * self.a_max
         self._set_frozen(np.zeros(len(specs), dtype=bool))
+        #: Bounds from the compiled kernel (:func:`box_bounds`), compiled (or loaded) now.
+        self._compiled = jit.available()
+        if self._compiled:
+            self.compute_qp_bounds(np.zeros(len(specs)), np.zeros(len(specs)))
 
     def __setattr__(self, name: str, value: object) -> None:
         if name in _BOX_INPUTS:
@@ -102,6 +109,13 @@ class JointBox:
         ``v_prev`` [rad/s, m/s]; new arrays, the caller's to keep."""
         if not self._prepared:
             self._prepare()
+        if self._compiled:
+            lb, ub = np.empty(len(q)), np.empty(len(q))
+            box_bounds(
+                q, v_prev, self._a_dt, self._v_cap, self._two_ab, self._off_q, self._floor,
+                self._brake_dt2, lb, ub,
+            )  # fmt: skip
+            return lb, ub
         up, dist, a_dt = self._up, self._dist, self._a_dt
         up0, up1, dist0, dist1 = self._rows
         np.subtract(a_dt, v_prev, out=up0)  # acceleration: −lb ≤ a·dt − v_prev
@@ -123,3 +137,44 @@ class JointBox:
             a_dt = a_dt[hold]
             lb[hold] = ub[hold] = np.minimum(np.maximum(v - a_dt, 0.0), v + a_dt)
         return lb, ub
+
+
+@jit.jit
+def box_bounds(
+    q: np.ndarray,
+    v_prev: np.ndarray,
+    a_dt: np.ndarray,
+    v_cap: np.ndarray,
+    two_ab: np.ndarray,
+    off_q: np.ndarray,
+    floor: np.ndarray,
+    brake_dt: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+) -> None:
+    """:meth:`JointBox.compute_qp_bounds` joint by joint, compiled (same arithmetic as its
+    NumPy code, NaN propagating as in NumPy's minimum/maximum: tests compare them). Arrays
+    as :meth:`JointBox._prepare` makes them; writes ``lb`` and ``ub`` [rad/s, m/s]."""
+    for i in range(q.shape[0]):
+        toward_min = _minimum(a_dt[i] - v_prev[i], v_cap[0, i])  # bounds −lb
+        toward_max = _minimum(a_dt[i] + v_prev[i], v_cap[1, i])
+        room = math.sqrt(_maximum(two_ab[i] * q[i] + off_q[0, i], floor[0, i])) - brake_dt[0, i]
+        toward_min = _minimum(toward_min, room)
+        room = math.sqrt(_maximum(-two_ab[i] * q[i] + off_q[1, i], floor[1, i])) - brake_dt[1, i]
+        toward_max = _minimum(toward_max, room)
+        low, high = 0.0 - toward_min, toward_max  # 0 − x: a zero bound stays +0.0
+        if low > high:  # conflict: decelerate as hard as allowed, towards zero
+            low = high = min(max(v_prev[i] - a_dt[i], 0.0), v_prev[i] + a_dt[i])
+        lb[i], ub[i] = low, high
+
+
+@jit.jit
+def _minimum(a: float, b: float) -> float:
+    """NumPy's minimum: NaN if either is."""
+    return a if a < b or a != a else b
+
+
+@jit.jit
+def _maximum(a: float, b: float) -> float:
+    """NumPy's maximum: NaN if either is."""
+    return a if a > b or a != a else b
