@@ -316,6 +316,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     from controller.model import collision_kernel, elbow, jit
     from controller.model.redundant_axes import elbow_axis
     from controller.motion.motions import CPHoldMotion
+    from controller.qp import tasks
     from controller.qp.constraints import damper_kernel, joint_box
 
     if not jit.available():
@@ -328,6 +329,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         damper_kernel.collision_rows,
         elbow.elbow_kernel,
         joint_box.box_bounds,
+        tasks._pose_error,
     )
     before = [len(k.signatures) for k in kernels]
     assert all(before)

@@ -16,6 +16,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from controller.model import jit
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_value
 from controller.vocabulary import RightLeft
@@ -100,9 +101,60 @@ def pose_error(target: pin.SE3, pose: pin.SE3, out: np.ndarray | None = None) ->
     poses are given in; written into ``out`` when given."""
     if out is None:
         out = np.empty(6)
+    if _COMPILED:
+        _pose_error(target.rotation, target.translation, pose.rotation, pose.translation, out)
+        return out
     np.subtract(target.translation, pose.translation, out=out[:3])
     out[3:] = pin.log3((target * pose.inverse()).rotation)
     return out
+
+
+#: Whether :func:`pose_error` uses its compiled form (decided at import).
+_COMPILED = jit.available()
+
+
+@jit.jit
+def _pose_error(
+    target_rot: np.ndarray,
+    target_pos: np.ndarray,
+    pose_rot: np.ndarray,
+    pose_pos: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """:func:`pose_error` compiled: the translation difference and ``log3(R_t R_pᵀ)`` (the
+    rotation vector, angle in [0, π]; tests compare it with Pinocchio's ``log3``)."""
+    for i in range(3):
+        out[i] = target_pos[i] - pose_pos[i]
+    r = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            r[a, b] = (
+                target_rot[a, 0] * pose_rot[b, 0]
+                + target_rot[a, 1] * pose_rot[b, 1]
+                + target_rot[a, 2] * pose_rot[b, 2]
+            )
+    cos = min(max(0.5 * (r[0, 0] + r[1, 1] + r[2, 2] - 1.0), -1.0), 1.0)
+    sx, sy, sz = r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]  # 2 sin θ · axis
+    theta = math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), cos)  # exact near 0, π
+    if theta < 1e-4:  # θ / (2 sin θ) by its series
+        k = 0.5 + theta * theta / 12.0
+        out[3], out[4], out[5] = k * sx, k * sy, k * sz
+    elif theta < math.pi - 1e-3:
+        k = 0.5 * theta / math.sin(theta)
+        out[3], out[4], out[5] = k * sx, k * sy, k * sz
+    else:  # near π: the axis from the symmetric part, (R + Rᵀ)/2 − cos·I = (1 − cos) a aᵀ
+        one = 1.0 - cos
+        best = 0
+        for i in (1, 2):
+            if r[i, i] > r[best, best]:
+                best = i
+        col = np.empty(3)
+        for i in range(3):
+            col[i] = (0.5 * (r[i, best] + r[best, i]) - (cos if i == best else 0.0)) / one
+        norm = math.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2])
+        sign = 1.0 if col[0] * sx + col[1] * sy + col[2] * sz >= 0.0 else -1.0
+        k = sign * theta / norm
+        out[3], out[4], out[5] = k * col[0], k * col[1], k * col[2]
 
 
 class AxisTask(Task):
@@ -194,3 +246,8 @@ class PostureTask(Task):
         if self.gain != 1.0:  # x·1 = x exactly: skip the product
             rate *= self.gain
         rate += self.rate
+
+
+if _COMPILED:  # compile (or load) at import for Pinocchio's arrays: never in a control cycle
+    _one = pin.SE3.Identity()
+    _pose_error(_one.rotation, _one.translation, _one.rotation, _one.translation, np.empty(6))

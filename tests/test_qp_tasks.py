@@ -1,0 +1,55 @@
+"""controller.qp.tasks: the pose error, compiled and not, against Pinocchio."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from controller.model import jit
+from controller.qp import tasks
+
+
+def rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    return np.asarray(pin.exp3(angle * axis / np.linalg.norm(axis)))
+
+
+def random_rotations(rng: np.random.Generator) -> list[np.ndarray]:
+    """Uniform ones, and angles near 0 and near π (where log3 needs its special forms)."""
+    out = [np.asarray(pin.SE3.Random().rotation) for _ in range(300)]
+    for angle in (0.0, 1e-12, 1e-8, 1e-5, 1e-4, 2e-4, 1e-3, 0.5, 3.0):
+        out.append(rotation(rng.normal(size=3), angle))
+    for gap in (0.0, 1e-12, 1e-8, 1e-5, 1e-4, 9e-4, 1e-3, 1.1e-3, 1e-2):
+        out.append(rotation(rng.normal(size=3), math.pi - gap))
+    return out
+
+
+@pytest.mark.skipif(not jit.available(), reason="numba not installed")
+def test_compiled_pose_error_is_pinocchios() -> None:
+    rng = np.random.default_rng(1)
+    for r in random_rotations(rng):
+        base = pin.SE3.Random()
+        target = pin.SE3(r @ base.rotation, rng.normal(size=3))
+        out = np.empty(6)
+        tasks._pose_error(target.rotation, target.translation, base.rotation, base.translation, out)
+        want = np.empty(6)
+        want[:3] = target.translation - base.translation
+        want[3:] = pin.log3((target * base.inverse()).rotation)
+        np.testing.assert_allclose(out[:3], want[:3], atol=1e-15)
+        angle = np.linalg.norm(want[3:])
+        if angle < math.pi - 1e-6:  # the rotation vector is unique
+            np.testing.assert_allclose(out[3:], want[3:], atol=1e-9)
+        # anywhere (at π, ±axis): the same rotation, the same angle
+        np.testing.assert_allclose(np.asarray(pin.exp3(out[3:])), r, atol=1e-9)
+        assert np.linalg.norm(out[3:]) == pytest.approx(angle, abs=1e-9)
+
+
+def test_pose_error_with_and_without_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    target, pose = pin.SE3.Random(), pin.SE3.Random()
+    results = []
+    for compiled in (False, jit.available()):
+        monkeypatch.setattr(tasks, "_COMPILED", compiled)
+        results.append(tasks.pose_error(target, pose))
+    np.testing.assert_allclose(results[0], results[1], atol=1e-9)
