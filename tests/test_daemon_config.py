@@ -200,6 +200,17 @@ def test_security_token_rules_on_loopback():
     assert security_problems(both) == []
 
 
+def test_gateway_switch_interval_is_bounded():
+    assert load_config(None, None, []).gateway_switch_interval_s == 0.0005
+    assert (
+        load_config(None, None, ["gateway_switch_interval_s=0.005"]).gateway_switch_interval_s
+        == 0.005
+    )
+    for bad in ("0", "-1", "nan", "1"):
+        with pytest.raises(ConfigError, match="gateway_switch_interval_s"):
+            load_config(None, None, [f"gateway_switch_interval_s={bad}"])
+
+
 def test_streams_and_workers_are_independent():
     """The streams have threads of their own (test_gateway_process pins it): any number of
     them goes with any number of workers."""

@@ -144,6 +144,10 @@ class DaemonConfig(_Strict):
     #: gRPC worker threads of the gateway, for the unary calls (the StreamState streams
     #: have a pool of their own).
     workers: int = Field(default=16, ge=2, le=256)
+    #: The gateway process's GIL switch interval [s] (Python's default 5 ms): how long a
+    #: thread planning a move keeps the GIL from the threads answering reads
+    #: (docs/daemon.md, "Reads under client load"). ``gateway: process`` only.
+    gateway_switch_interval_s: float = Field(default=0.0005, ge=1e-5, le=0.1)
     security: SecurityConfig = SecurityConfig()
     jara: JaraConfig = JaraConfig()
     monitor: MonitorConfig = MonitorConfig()

@@ -236,6 +236,11 @@ def main(argv: list[str] | None = None) -> int:
     # a file: nothing else on the machine can read it.
     cfg = DaemonConfig.model_validate_json(sys.stdin.readline())
     setup_logging(cfg.log_level, "gateway")
+    # A thread planning a move (~20-30 ms of Python) keeps the GIL until another thread has
+    # waited a switch interval, and a read needs the GIL several times on its way (gRPC's
+    # poll thread, a worker, the poll thread again): at Python's 5 ms a read arriving during
+    # planning waited up to ~20 ms (docs/daemon.md, "Reads under client load").
+    sys.setswitchinterval(cfg.gateway_switch_interval_s)
     try:
         gateway = start_gateway(cfg, args.runtime)
     except Exception as exc:
