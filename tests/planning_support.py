@@ -10,7 +10,7 @@ import numpy as np
 
 from controller.contract import snapshot as snap_mod
 from controller.contract.config import load_config
-from controller.contract.snapshot import Snapshot
+from controller.contract.snapshot import Snapshot, StateHeader
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
 from controller.gateway.services.context import Context
@@ -84,6 +84,10 @@ class FixedReader:
 
     def read(self) -> Snapshot:
         return self.snap
+
+    def read_state(self) -> StateHeader:
+        s = self.snap
+        return StateHeader(s.cycle, s.core_state, s.hw_state, s.flags, s.queue)
 
 
 def view(rob: Robot, reader: FixedReader) -> RobotView:

@@ -200,7 +200,19 @@ def test_security_token_rules_on_loopback():
     assert security_problems(both) == []
 
 
-def test_streams_cannot_take_every_gateway_thread():
-    with pytest.raises(ConfigError, match=r"monitor\.max_streams: 8 must be below workers \(8\)"):
-        load_config(None, None, ["workers=8"])
-    assert load_config(None, None, ["workers=8", "monitor.max_streams=7"]).workers == 8
+def test_gateway_switch_interval_is_bounded():
+    assert load_config(None, None, []).gateway_switch_interval_s == 0.0005
+    assert (
+        load_config(None, None, ["gateway_switch_interval_s=0.005"]).gateway_switch_interval_s
+        == 0.005
+    )
+    for bad in ("0", "-1", "nan", "1"):
+        with pytest.raises(ConfigError, match="gateway_switch_interval_s"):
+            load_config(None, None, [f"gateway_switch_interval_s={bad}"])
+
+
+def test_streams_and_workers_are_independent():
+    """The streams have threads of their own (test_gateway_process pins it): any number of
+    them goes with any number of workers."""
+    cfg = load_config(None, None, ["workers=2", "monitor.max_streams=8"])
+    assert (cfg.workers, cfg.monitor.max_streams) == (2, 8)

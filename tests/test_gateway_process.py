@@ -114,3 +114,29 @@ def test_a_stream_and_readers_together(d: TestDaemon):
         assert not readers.errors, readers.errors[:3]
     finally:
         stream.cancel()
+
+
+def test_streams_never_take_the_threads_of_the_unary_calls():
+    """Monitor streams run in a pool of their own (controller/gateway/grpc/registrar.py):
+    with two worker threads and four streams open, the unary calls are all answered, a
+    fifth stream is refused at once, and a command still runs."""
+    daemon = TestDaemon("pa10", workers=2, **{"monitor.max_streams": 4})
+    streams = []
+    try:
+        for _ in range(4):
+            stream = daemon.monitor.StreamState(pb.StreamStateRequest(rate_hz=1.0))
+            streams.append(stream)
+            assert next(iter(stream)).sequence == 0  # open, holding its thread
+        extra = daemon.monitor.StreamState(pb.StreamStateRequest(rate_hz=1.0), timeout=DEADLINE)
+        with pytest.raises(grpc.RpcError) as err:
+            next(iter(extra))
+        assert err.value.code() == grpc.StatusCode.RESOURCE_EXHAUSTED
+        with Readers(daemon.address) as readers:
+            assert _wait(lambda: readers.answers >= 4 * READERS), "reads starved"
+            reply = daemon.spec_a.ServoOn(pb.ServoOnRequest(), timeout=DEADLINE)
+            assert reply.return_id.id == 0, reply.return_id.comment
+        assert not readers.errors, readers.errors[:3]
+    finally:
+        for stream in streams:
+            stream.cancel()
+        daemon.close()

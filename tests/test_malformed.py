@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import grpc
 import pytest
 
-from controller.gateway.grpc.malformed import MalformedRequestInterceptor, _RateLimitedLog
+from controller.gateway.grpc.malformed import _RateLimitedLog
 from tests.daemon_support import TestDaemon
 
 BAD = b"\x0a\xff"  # field 1, length-delimited, truncated length: never decodes
@@ -78,20 +78,3 @@ def test_repeated_reports_are_rate_limited(caplog: pytest.LogCaptureFixture):
         "undecodable request to /x/Y: bad (4 more since the last report)",
         "undecodable request to /x/Z: bad",
     ]
-
-
-class _Details:
-    def __init__(self, method: str):
-        self.method = method
-        self.invocation_metadata = ()
-
-
-def test_the_wrapped_handler_is_made_once_per_method():
-    guard = MalformedRequestInterceptor()
-    handler = grpc.unary_unary_rpc_method_handler(lambda r, c: r, lambda b: b, lambda r: r)
-    first = guard.intercept_service(lambda d: handler, _Details("/x/Y"))
-    assert first is not handler and first.request_deserializer is not None
-    assert guard.intercept_service(lambda d: handler, _Details("/x/Y")) is first
-    other = grpc.unary_unary_rpc_method_handler(lambda r, c: r, lambda b: b, lambda r: r)
-    assert guard.intercept_service(lambda d: other, _Details("/x/Y")) is not first
-    assert guard.intercept_service(lambda d: None, _Details("/x/Z")) is None

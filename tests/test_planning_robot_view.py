@@ -63,3 +63,32 @@ def test_anything_the_pose_depends_on_is_a_new_answer():
     assert c.runs == 4
     c.view.pose(snap, RightLeft.RIGHT, FrameType.CURRENT_FRAME)  # another frame
     assert c.runs == 5
+
+
+def test_frames_are_given_to_the_kinematics_again_only_when_they_change():
+    """RobotView.at sets the control-point offsets and the original frame only when the
+    snapshot's differ from the last ones it set; every answer still uses the snapshot's."""
+    rob = robot("pa10")
+    arm = rob.unit_joints("RIGHT_ARM")[0]
+    fresh = view(rob, FixedReader(snapshot(rob)))  # a second view: its own Kinematics
+    c = _CountingView("pa10")
+    kin = c.view.kin
+    sets: list[str] = []
+    for name in ("set_control_point_offset", "set_original_frame"):
+        method = getattr(kin, name)
+
+        def counted(*args: Any, _m: Any = method, _n: str = name, **kwargs: Any) -> Any:
+            sets.append(_n)
+            return _m(*args, **kwargs)
+
+        setattr(kin, name, counted)
+    tool = snapshot(rob, {arm: 0.2})
+    tool.offsets[0, 2, 3] += 0.1
+    back = snapshot(rob, {arm: 0.3})  # (a new q: not an answer RobotView.pose kept)
+    for k, snap in enumerate([snapshot(rob), snapshot(rob, {arm: 0.1}), tool, back]):
+        got = c.view.pose(snap, RightLeft.RIGHT, FrameType.ORIGINAL_FRAME)[0]
+        fresh._frames = None  # the reference sets its frames every time
+        want = fresh.pose(snap, RightLeft.RIGHT, FrameType.ORIGINAL_FRAME)[0]
+        np.testing.assert_allclose(got.homogeneous, want.homogeneous, atol=1e-12, err_msg=str(k))
+    # the first snapshot, the tool's and the way back: three times, not four
+    assert sets.count("set_original_frame") == 3

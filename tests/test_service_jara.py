@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from controller.rpc import imotion_pb2 as pb
-from controller.vocabulary import ReturnCode
+from controller.vocabulary import ReturnCode, SpecAState
 from tests.daemon_support import TestDaemon
 
 OK, VALUE_ERR, STATUS_ERR = ReturnCode.OK, ReturnCode.VALUE_ERR, ReturnCode.STATUS_ERR
@@ -98,6 +98,30 @@ def test_queue_runs_in_order_and_reports_full(d):
     assert d.wait_idle()
     end, _ = pose(d)
     assert end[2, 3] - start[2, 3] == pytest.approx(40.0, abs=0.05)
+
+
+def test_spec_a_state_follows_the_queue_as_it_drains(d):
+    """getState's answers are kept ready by core state, hardware state and queue length
+    (controller/gateway/grpc/base.py Replies): each step of a draining queue shows."""
+    for _ in range(3):
+        r = d.middle.MovePTPJointRel(M("MovePTPJointRel", joint_points=[10] + [0] * 6))
+        assert code(r) == OK, r.return_id.comment
+    seen: list[str] = []
+
+    def ready() -> bool:
+        reply = d.spec_a.GetState(pb.GetStateRequest())
+        if not seen or seen[-1] != reply.message:
+            seen.append(reply.message)
+        return reply.status_id == SpecAState.READY
+
+    assert d.wait_for(ready, 60.0)
+    busy = "Busy: executing a motion"
+    assert [m for m in seen if m.startswith("Busy")][-3:] == [
+        f"{busy} (2 queued)",
+        f"{busy} (1 queued)",
+        busy,
+    ], seen
+    assert seen[-1].startswith("Ready")
 
 
 def test_stop_empties_the_queue(d):

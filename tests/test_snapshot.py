@@ -57,6 +57,31 @@ def test_published_values_come_back(tmp_path: Path):
     assert not (tmp_path / "s").exists()  # unlink removed the file
 
 
+def test_the_state_alone_comes_back(tmp_path: Path):
+    """read_state: the states and counters of the header, without joints or alarms."""
+    w = SnapshotWriter(tmp_path / "s", N)
+    r = SnapshotReader(tmp_path / "s", N)
+    try:
+        w.begin()
+        w.header[snap.H_CYCLE] = 7
+        w.header[snap.H_CORE_STATE] = int(CoreState.PAUSED)
+        w.header[snap.H_HW_STATE] = snap.HW_STATES.index(HardwareState.ACTIVE)
+        w.header[snap.H_FLAGS] = snap.F_SERVO_ON
+        w.header[snap.H_QUEUE] = 3
+        w.end()
+        h = r.read_state()
+    finally:
+        r.close()
+        w.unlink()
+    assert (h.cycle, h.core_state, h.hw_state, h.queue) == (
+        7,
+        CoreState.PAUSED,
+        HardwareState.ACTIVE,
+        3,
+    )
+    assert h.servo_on and not h.moving
+
+
 def test_a_copy_is_independent_of_later_writes(tmp_path: Path):
     w = SnapshotWriter(tmp_path / "s", N)
     r = SnapshotReader(tmp_path / "s", N)
@@ -113,11 +138,16 @@ def test_reader_gives_up_when_the_writer_never_finishes(tmp_path: Path):
         w.unlink()
 
 
-def test_reads_are_never_torn_under_a_busy_writer(tmp_path: Path):
+@pytest.mark.parametrize("spin", [False, True], ids=["yield", "spin"])
+def test_reads_are_never_torn_under_a_busy_writer(tmp_path: Path, spin: bool):
     """Element by element writes (a thread switch can land between them): every copy a reader
-    gets has all joints from the same write."""
+    gets has all joints (and header fields) from the same write, whether the reader yields
+    at once or first retries for a moment (as it does when the writer is another
+    process)."""
     w = SnapshotWriter(tmp_path / "s", N)
     r = SnapshotReader(tmp_path / "s", N)
+    assert not r.spin  # the writer is this process
+    r.spin = spin
     stop = threading.Event()
 
     def write() -> None:
@@ -125,9 +155,11 @@ def test_reads_are_never_torn_under_a_busy_writer(tmp_path: Path):
         while not stop.is_set():
             k += 1.0
             w.begin()
+            w.header[snap.H_CYCLE] = int(k)
             for i in range(N):
                 w.q[i] = k
                 w.q_cmd[i] = k
+            w.header[snap.H_QUEUE] = int(k)
             w.end()
 
     writer = threading.Thread(target=write, daemon=True)
@@ -138,6 +170,9 @@ def test_reads_are_never_torn_under_a_busy_writer(tmp_path: Path):
         while len(seen) < 10 and time.monotonic() < end:
             s = r.read()
             assert np.all(s.q == s.q[0]) and np.all(s.q_cmd == s.q[0]), s.q
+            assert s.cycle == s.queue == int(s.q[0])
+            h = r.read_state()
+            assert h.cycle == h.queue
             seen.add(float(s.q[0]))
             time.sleep(0)  # let the writer run between reads too
         assert len(seen) > 1  # the writer did run concurrently

@@ -77,7 +77,8 @@ class JaraConfig(_Strict):
 class MonitorConfig(_Strict):
     #: StreamState rate when the request asks for 0 [Hz].
     default_rate_hz: float = Field(default=20.0, gt=0.0)
-    #: Concurrent StreamState streams (each takes a gateway thread).
+    #: Concurrent StreamState streams (each holds a thread of the streams' own pool, never
+    #: one of ``workers``).
     max_streams: int = Field(default=8, ge=1, le=64)
 
 
@@ -140,8 +141,13 @@ class DaemonConfig(_Strict):
     #: meanwhile) at most this many times within a minute; beyond, the daemon shuts down
     #: (exit 1). 0: never restart.
     gateway_restarts: int = Field(default=3, ge=0, le=100)
-    #: gRPC worker threads of the gateway.
+    #: gRPC worker threads of the gateway, for the unary calls (the StreamState streams
+    #: have a pool of their own).
     workers: int = Field(default=16, ge=2, le=256)
+    #: The gateway process's GIL switch interval [s] (Python's default 5 ms): how long a
+    #: thread planning a move keeps the GIL from the threads answering reads
+    #: (docs/daemon.md, "Reads under client load"). ``gateway: process`` only.
+    gateway_switch_interval_s: float = Field(default=0.0005, ge=1e-5, le=0.1)
     security: SecurityConfig = SecurityConfig()
     jara: JaraConfig = JaraConfig()
     monitor: MonitorConfig = MonitorConfig()
@@ -319,9 +325,4 @@ def load_config(
         raise ConfigError("\n".join(lines)) from None
     if not math.isfinite(cfg.period):
         raise ConfigError(f"{where}: loop.rate_hz: must be finite")
-    if cfg.monitor.max_streams >= cfg.workers:
-        raise ConfigError(
-            f"{where}: monitor.max_streams: {cfg.monitor.max_streams} must be below workers "
-            f"({cfg.workers}): each stream holds a gateway thread, the other calls need one too"
-        )
     return cfg

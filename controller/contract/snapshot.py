@@ -23,6 +23,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -62,6 +63,9 @@ VALUES_FIXED = 44
 
 ALARM_BYTES = 16384
 
+#: How long a reader retries at once when another process is writing the snapshot [s].
+SPIN_S = 50e-6
+
 #: Hardware states in the order of their header value.
 HW_STATES: tuple[HardwareState, ...] = tuple(HardwareState)
 
@@ -89,6 +93,25 @@ class Snapshot:
     original_theta: float  #: [rad]
     offsets: np.ndarray  #: control-point offsets (2 x 3x4), RIGHT then LEFT
     alarms: list[dict]  #: code, type, description, module
+
+    @property
+    def moving(self) -> bool:
+        return bool(self.flags & F_MOVING)
+
+    @property
+    def servo_on(self) -> bool:
+        return bool(self.flags & F_SERVO_ON)
+
+
+class StateHeader(NamedTuple):
+    """The states and counters of one snapshot, without joints, frames or alarms
+    (:meth:`SnapshotReader.read_state`)."""
+
+    cycle: int
+    core_state: CoreState
+    hw_state: HardwareState
+    flags: int
+    queue: int
 
     @property
     def moving(self) -> bool:
@@ -176,51 +199,87 @@ class SnapshotReader(_Mapped):
 
     def __init__(self, path: Path, n_joints: int):
         super().__init__(path, n_joints, create=False)
+        #: Retry at once for a moment when the writer is mid-write (see :meth:`read`): only
+        #: when it is another process, which writes on while this one spins.
+        self.spin = int(self.header[H_PID]) != os.getpid()
 
     def read(self, timeout: float = 1.0) -> Snapshot:
         """A consistent copy; raises RuntimeError if the writer never stands still.
 
-        Between attempts the reader yields the CPU (and, in one process, the GIL): a writer
-        preempted mid-write must be able to finish, which a tight spin would prevent.
+        A write takes ~10 us (p99 ~15 us) and is in progress for ~0.3 % of the time; a
+        reader that finds one retries at once for up to :data:`SPIN_S` when the writer is
+        another process (it finishes meanwhile), then between attempts yields the CPU (and,
+        in one process, the GIL): a writer preempted mid-write must be able to finish, which
+        a tight spin would prevent. Yielding the GIL at once cost a reader up to a GIL
+        switch interval (5 ms) whenever it met a write.
         """
-        deadline = time.monotonic() + timeout
-        tries = 0
+        header, values, alarm_bytes = self._consistent(True, timeout)
+        return _decode(header, values, alarm_bytes, self.n)
+
+    def read_state(self, timeout: float = 1.0) -> StateHeader:
+        """The states and counters alone (the header: 128 bytes, no joints, no alarms), a
+        consistent copy like :meth:`read` at a tenth of its cost: what getState, isMoving
+        and isServoOn answer from."""
+        h = self._consistent(False, timeout)[0].tolist()
+        return StateHeader(
+            cycle=h[H_CYCLE],
+            core_state=CoreState(h[H_CORE_STATE]),
+            hw_state=HW_STATES[h[H_HW_STATE]],
+            flags=h[H_FLAGS],
+            queue=h[H_QUEUE],
+        )
+
+    def _consistent(self, full: bool, timeout: float) -> tuple[np.ndarray, np.ndarray, bytes]:
+        """(header, values, alarm bytes) from one write (values and alarms only if
+        ``full``): the seqlock's retry loop."""
+        now = time.monotonic()
+        deadline = now + timeout
+        spin_end = now + SPIN_S if self.spin else now
+        tries = sleeps = 0
         while tries < 3 or time.monotonic() < deadline:
-            if tries:
-                time.sleep(0 if tries < 10 else 1e-4)
+            if tries and time.monotonic() >= spin_end:
+                time.sleep(0 if sleeps < 7 else 1e-4)
+                sleeps += 1
             tries += 1
             seq = int(self.header[H_SEQ])
             if seq & 1:
                 continue
             header = self.header.copy()
-            values = self.values.copy()
-            n_alarm = int(header[H_ALARM_LEN])
-            alarm_bytes = self.alarm_buf[:n_alarm].tobytes()
+            values, alarm_bytes = _NO_VALUES, b""
+            if full:
+                values = self.values.copy()
+                alarm_bytes = self.alarm_buf[: int(header[H_ALARM_LEN])].tobytes()
             if int(self.header[H_SEQ]) != seq:
                 continue
-            return _decode(header, values, alarm_bytes, self.n)
+            return header, values, alarm_bytes
         raise RuntimeError("the control loop kept rewriting the snapshot: no consistent copy")
 
 
+_NO_VALUES = np.zeros(0)
+
+
 def _decode(header: np.ndarray, values: np.ndarray, alarm_bytes: bytes, n: int) -> Snapshot:
+    # ``values`` is this read's own copy: views of it are as independent of later writes as
+    # copies would be, at a fraction of the cost.
+    h = header.tolist()
     return Snapshot(
-        cycle=int(header[H_CYCLE]),
-        core_state=CoreState(int(header[H_CORE_STATE])),
-        hw_state=HW_STATES[int(header[H_HW_STATE])],
-        flags=int(header[H_FLAGS]),
-        queue=int(header[H_QUEUE]),
-        queue_depth=int(header[H_QUEUE_DEPTH]),
-        started=int(header[H_STARTED]),
-        finished=int(header[H_FINISHED]),
-        overruns=int(header[H_OVERRUNS]),
-        pid=int(header[H_PID]),
+        cycle=h[H_CYCLE],
+        core_state=CoreState(h[H_CORE_STATE]),
+        hw_state=HW_STATES[h[H_HW_STATE]],
+        flags=h[H_FLAGS],
+        queue=h[H_QUEUE],
+        queue_depth=h[H_QUEUE_DEPTH],
+        started=h[H_STARTED],
+        finished=h[H_FINISHED],
+        overruns=h[H_OVERRUNS],
+        pid=h[H_PID],
         stamp=float(values[V_STAMP]),
-        compute_us=values[V_COMPUTE : V_COMPUTE + 3].copy(),
-        wake_us=values[V_WAKE : V_WAKE + 3].copy(),
-        q=values[VALUES_FIXED : VALUES_FIXED + n].copy(),
-        q_cmd=values[VALUES_FIXED + n :].copy(),
-        original=values[V_ORIGINAL : V_ORIGINAL + 12].reshape(3, 4).copy(),
+        compute_us=values[V_COMPUTE : V_COMPUTE + 3],
+        wake_us=values[V_WAKE : V_WAKE + 3],
+        q=values[VALUES_FIXED : VALUES_FIXED + n],
+        q_cmd=values[VALUES_FIXED + n :],
+        original=values[V_ORIGINAL : V_ORIGINAL + 12].reshape(3, 4),
         original_theta=float(values[V_ORIGINAL_THETA]),
-        offsets=values[V_OFFSETS : V_OFFSETS + 24].reshape(2, 3, 4).copy(),
-        alarms=json.loads(alarm_bytes) if alarm_bytes else [],
+        offsets=values[V_OFFSETS : V_OFFSETS + 24].reshape(2, 3, 4),
+        alarms=json.loads(alarm_bytes) if alarm_bytes and alarm_bytes != b"[]" else [],
     )

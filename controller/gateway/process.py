@@ -28,8 +28,9 @@ from controller.contract.config import DaemonConfig, parse_listen
 from controller.contract.snapshot import SnapshotReader
 from controller.gateway.grpc.auth import TokenInterceptor
 from controller.gateway.grpc.jara import add_jara_servicers
-from controller.gateway.grpc.malformed import MalformedRequestInterceptor
+from controller.gateway.grpc.malformed import MalformedRequestGuard
 from controller.gateway.grpc.monitor import MonitorServicer
+from controller.gateway.grpc.registrar import Registrar, chain, streams_in_pool
 from controller.gateway.grpc.spec_a import IntegratedMotionServicer
 from controller.gateway.grpc.testing import TestingServicer
 from controller.gateway.observe.blackbox_writer import BlackBoxWriter
@@ -102,7 +103,7 @@ def start_observers(cfg: DaemonConfig, runtime_dir: Path, ctx: Context) -> Obser
     return out
 
 
-def add_servicers(server: grpc.Server, services: Services) -> None:
+def add_servicers(server: grpc.Server | Registrar, services: Services) -> None:
     ctx = services.ctx
     pb_grpc.add_IntegratedMotionServicer_to_server(
         IntegratedMotionServicer(ctx, services.spec_a), server
@@ -144,6 +145,7 @@ class Gateway:
     address: str
     ctx: Context
     services: Services
+    streams: ThreadPoolExecutor | None = None  #: the Monitor streams' threads
     corba: Any = None  #: controller.gateway.corba.server.CorbaServer
     rtc: Any = None  #: controller.gateway.corba.rtc.RtComponent (corba.rtc.enabled)
 
@@ -155,6 +157,8 @@ class Gateway:
             self.corba.close()
             self.corba = None
         self.server.stop(grace).wait(1.0 if grace else None)
+        if self.streams is not None:  # the streams ended with the server: free their threads
+            self.streams.shutdown(wait=False)
 
 
 def start_corba_if_enabled(cfg: DaemonConfig, services: Services, runtime_dir: Path) -> Any:
@@ -172,22 +176,44 @@ def start_corba_if_enabled(cfg: DaemonConfig, services: Services, runtime_dir: P
     return start_corba(cfg, services, runtime_dir)
 
 
+def stream_pool_size(cfg: DaemonConfig) -> int:
+    """Threads of the Monitor streams' own pool: one per allowed stream, and two more that
+    answer a stream over the limit (RESOURCE_EXHAUSTED) at once."""
+    return cfg.monitor.max_streams + 2
+
+
+#: Unary calls in progress or waiting for a worker thread, at least (beyond:
+#: RESOURCE_EXHAUSTED): 32 polling clients and a few commands fit with any ``workers``.
+MIN_QUEUED_CALLS = 128
+
+
+def max_calls(cfg: DaemonConfig) -> int:
+    """Calls the server takes at once (grpcio's ``maximum_concurrent_rpcs``): eight waiting
+    per worker thread, at least :data:`MIN_QUEUED_CALLS`, plus the streams' pool."""
+    return max(cfg.workers * 8, MIN_QUEUED_CALLS) + stream_pool_size(cfg)
+
+
 def start_gateway(cfg: DaemonConfig, runtime_dir: Path) -> Gateway:
     ctx = build_context(cfg, runtime_dir)
     services = Services.build(ctx)
     tokens = TokenInterceptor(cfg.security.tokens)
-    # Tokens first: an unauthenticated caller learns nothing, not even that its bytes are bad.
-    interceptors: list[grpc.ServerInterceptor] = [tokens] if tokens.enabled else []
-    interceptors.append(MalformedRequestInterceptor())
+    # Tokens are the one interceptor (a call's metadata is only known then); everything
+    # else is done to the handlers once, at registration. Tokens run first: an
+    # unauthenticated caller learns nothing, not even that its bytes are bad.
+    workers = ThreadPoolExecutor(max_workers=cfg.workers, thread_name_prefix="grpc")
+    streams = ThreadPoolExecutor(max_workers=stream_pool_size(cfg), thread_name_prefix="stream")
     server = grpc.server(
-        ThreadPoolExecutor(max_workers=cfg.workers, thread_name_prefix="grpc"),
-        interceptors=interceptors,
-        maximum_concurrent_rpcs=cfg.workers * 8,
+        workers,
+        interceptors=[tokens] if tokens.enabled else None,
+        maximum_concurrent_rpcs=max_calls(cfg),
     )
-    add_servicers(server, services)
+    # Streams in a pool of their own: however many are open, the unary calls keep all of
+    # the ``workers`` threads.
+    guard = MalformedRequestGuard()
+    add_servicers(Registrar(server, chain(guard.wrap, streams_in_pool(streams))), services)
     address = bind(server, cfg)
     server.start()
-    gateway = Gateway(server, address, ctx, services)
+    gateway = Gateway(server, address, ctx, services, streams)
     try:
         gateway.corba = start_corba_if_enabled(cfg, services, runtime_dir)
         if gateway.corba is not None:
@@ -210,6 +236,11 @@ def main(argv: list[str] | None = None) -> int:
     # a file: nothing else on the machine can read it.
     cfg = DaemonConfig.model_validate_json(sys.stdin.readline())
     setup_logging(cfg.log_level, "gateway")
+    # A thread planning a move (~20-30 ms of Python) keeps the GIL until another thread has
+    # waited a switch interval, and a read needs the GIL several times on its way (gRPC's
+    # poll thread, a worker, the poll thread again): at Python's 5 ms a read arriving during
+    # planning waited up to ~20 ms (docs/daemon.md, "Reads under client load").
+    sys.setswitchinterval(cfg.gateway_switch_interval_s)
     try:
         gateway = start_gateway(cfg, args.runtime)
     except Exception as exc:

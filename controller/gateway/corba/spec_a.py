@@ -94,7 +94,7 @@ class SpecAServant(idl_poa.IntegratedMotionInterface):
 
     @op
     def getState(self) -> Reply:
-        state, text = spec_a_state(self.ctx.snapshot())
+        state, text = spec_a_state(self.ctx.state())
         return Reply(int(state), text)
 
     @op

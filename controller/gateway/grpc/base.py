@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from typing import Any
 
 import numpy as np
@@ -40,7 +40,8 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """Wrap a servicer method ``fn(self, request) -> dict | str | None`` into a gRPC handler.
 
     The dict holds the response's out-fields; an optional ``"comment"`` key replaces "OK"; a
-    string is the comment alone. An :class:`ImotionError` becomes its code and comment.
+    string is the comment alone; a ``response`` message is the answer as it is (a ready
+    reply from :class:`Replies`). An :class:`ImotionError` becomes its code and comment.
     Every numeric field of the request is bounded first (:func:`check_request`), before the
     servicer runs: nothing is planned from an absurd number.
     """
@@ -53,6 +54,8 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
             try:
                 check_request(request)
                 outs = fn(self, request) or {}
+                if isinstance(outs, response):
+                    return outs
                 if isinstance(outs, str):
                     outs = {"comment": outs}
                 comment = outs.pop("comment", "OK")
@@ -77,6 +80,29 @@ def rpc(response: type) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
 
 #: Read-only operations (not logged: clients poll them).
 _READS = ("Get", "Is")
+
+
+class Replies:
+    """Ready OK answers of a read, by what they depend on (e.g. getState's by the core
+    state, the hardware state and the queue length): built once, then the same message is
+    handed to every caller and gRPC only serialises it (~0.2 us instead of ~2 us to build
+    it). The messages are never changed once here. Keeps at most ``limit`` (then starts
+    over)."""
+
+    def __init__(self, response: type, limit: int = 64):
+        self.response = response
+        self.limit = limit
+        self._known: dict[Hashable, Any] = {}
+
+    def get(self, key: Hashable, fields: Callable[[], dict[str, Any]]) -> Any:
+        """The answer for ``key``; ``fields()`` gives its out-fields the first time."""
+        reply = self._known.get(key)
+        if reply is None:
+            reply = self.response(return_id=pb.ReturnID(id=ReturnCode.OK, comment="OK"), **fields())
+            if len(self._known) >= self.limit:
+                self._known.clear()
+            self._known[key] = reply
+        return reply
 
 
 def _command_log(

@@ -7,6 +7,7 @@ import grpc
 
 from controller.conversions import ArgumentError
 from controller.gateway.grpc.base import car_pos_arg, ratio_arg, rpc
+from controller.gateway.grpc.registrar import Registrar
 from controller.gateway.services.jara_dual import JaraDualService
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
@@ -118,6 +119,6 @@ class DualManipulatorMiddleServicer(pb_grpc.DualManipulatorMiddleServicer):
         return {"rel_pos": pb.HgMatrix(m=self.dual.relative_position().ravel().tolist())}
 
 
-def add_dual_servicers(server: grpc.Server, dual: JaraDualService) -> None:
+def add_dual_servicers(server: grpc.Server | Registrar, dual: JaraDualService) -> None:
     pb_grpc.add_DualManipulatorCommonServicer_to_server(DualManipulatorCommonServicer(dual), server)
     pb_grpc.add_DualManipulatorMiddleServicer_to_server(DualManipulatorMiddleServicer(dual), server)

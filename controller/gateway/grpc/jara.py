@@ -20,6 +20,7 @@ from controller.gateway.grpc.base import (
     ratio_arg,
     rpc,
 )
+from controller.gateway.grpc.registrar import Registrar
 from controller.gateway.services.context import Context
 from controller.gateway.services.jara_arm import JaraArmService
 from controller.gateway.services.jara_settings import JaraSettingsService
@@ -91,7 +92,7 @@ class ManipulatorCommonServicer(pb_grpc.ManipulatorCommonServicer):
     @rpc(_r(C, "GetState"))
     def GetState(self, request):
         self.arms.arm(request.arm)
-        return {"state": jara_state(self.ctx.snapshot())}
+        return {"state": jara_state(self.ctx.state())}
 
     @rpc(_r(C, "ServoOFF"))
     def ServoOFF(self, request):
@@ -366,7 +367,7 @@ class ManipulatorMiddleServicer(pb_grpc.ManipulatorMiddleServicer):
         return self._circular(request, relative=True)
 
 
-def add_jara_servicers(server: grpc.Server, services: Services) -> None:
+def add_jara_servicers(server: grpc.Server | Registrar, services: Services) -> None:
     from controller.gateway.grpc.dual import add_dual_servicers
 
     ctx, arms, settings = services.ctx, services.arms, services.settings

@@ -1,8 +1,8 @@
 """Requests whose bytes do not decode: INVALID_ARGUMENT and one (rate-limited) log line.
 
 grpcio answers an undecodable request with INTERNAL and logs a traceback per call. This
-interceptor wraps every method's deserializer: a request that does not decode becomes a
-marker the handler turns into ``INVALID_ARGUMENT`` with a comment, before any servicer runs.
+guard wraps every method's deserializer: a request that does not decode becomes a marker
+the handler turns into ``INVALID_ARGUMENT`` with a comment, before any servicer runs.
 """
 
 from __future__ import annotations
@@ -46,31 +46,16 @@ class _RateLimitedLog:
         _log.warning("undecodable request to %s: %s%s", method, reason, extra)
 
 
-class MalformedRequestInterceptor(grpc.ServerInterceptor):
+class MalformedRequestGuard:
     """Turns undecodable requests into INVALID_ARGUMENT (see the module docstring).
 
-    The wrapped handler of a method is made once and kept (a call costs a dictionary
-    look-up here, not four closures and a handler).
+    :meth:`wrap` is applied to every method's handler once, when the servicers are
+    registered (controller/gateway/grpc/registrar.py): a call pays one more function call
+    for it, no interceptor.
     """
 
     def __init__(self, interval: float = LOG_INTERVAL):
         self.log = _RateLimitedLog(interval)
-        #: method -> (the handler, its wrapped version)
-        self._wrapped: dict[str, tuple[grpc.RpcMethodHandler, grpc.RpcMethodHandler]] = {}
-
-    def intercept_service(
-        self,
-        continuation: Callable[[grpc.HandlerCallDetails], grpc.RpcMethodHandler | None],
-        handler_call_details: grpc.HandlerCallDetails,
-    ) -> grpc.RpcMethodHandler | None:
-        handler = continuation(handler_call_details)
-        if handler is None:
-            return handler
-        method = handler_call_details.method
-        known = self._wrapped.get(method)
-        if known is None or known[0] is not handler:
-            known = self._wrapped[method] = (handler, self.wrap(method, handler))
-        return known[1]
 
     def wrap(self, method: str, handler: grpc.RpcMethodHandler) -> grpc.RpcMethodHandler:
         """``handler`` with a deserializer that never raises and a refusal of what it

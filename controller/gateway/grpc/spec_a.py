@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from controller.conversions import ArgumentError
 from controller.gateway.grpc.base import (
+    Replies,
     alarm_msgs,
     ratio_arg,
     rpc,
@@ -30,6 +31,7 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         self.ctx = ctx
         self.view = ctx.view
         self.service = service or SpecAService(ctx)
+        self._states = Replies(pb.GetStateResponse)  #: getState's answers
 
     # ------------------------------------------------------------------ always OK
     @rpc(pb.AbortResponse)
@@ -58,8 +60,13 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
 
     @rpc(pb.GetStateResponse)
     def GetState(self, request):
-        state, text = spec_a_state(self.ctx.snapshot())
-        return {"status_id": int(state), "message": text}
+        s = self.ctx.state()  # the snapshot's header: no joints, no alarms
+
+        def fields() -> dict:
+            state, text = spec_a_state(s)
+            return {"status_id": int(state), "message": text}
+
+        return self._states.get((s.core_state, s.hw_state, s.queue), fields)
 
     @rpc(pb.GetVersionResponse)
     def GetVersion(self, request):

@@ -16,7 +16,7 @@ from contextlib import contextmanager
 import numpy as np
 import pinocchio as pin
 
-from controller.contract.snapshot import Snapshot, SnapshotReader
+from controller.contract.snapshot import Snapshot, SnapshotReader, StateHeader
 from controller.conversions import m_to_mm, rad_to_deg
 from controller.model.kinematics import Kinematics
 from controller.model.robot import Robot
@@ -34,6 +34,8 @@ class RobotView:
         self.hw_joints = list(hw_joints)
         self.hw_index = np.array([self.hw_joints.index(n) for n in self.kin.joint_names])
         self._lock = threading.Lock()
+        #: The snapshot frames (offsets, original frame, θ) ``kin`` was last given.
+        self._frames: tuple[bytes, bytes, float] | None = None
         self.arms = self.kin.arms
         #: Recent answers of :meth:`pose` by what they depend on.
         self._poses: dict[tuple[object, ...], tuple[pin.SE3, float]] = {}
@@ -41,18 +43,27 @@ class RobotView:
     def snapshot(self) -> Snapshot:
         return self.reader.read()
 
+    def state(self) -> StateHeader:
+        return self.reader.read_state()
+
     @contextmanager
     def at(self, snap: Snapshot, q: np.ndarray | None = None) -> Iterator[Kinematics]:
         """The kinematics at ``snap`` (or at configuration ``q`` with ``snap``'s frames)."""
         with self._lock:
             kin = self.kin
-            for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
-                if side in kin.arms:
-                    off = np.vstack([snap.offsets[k], [0.0, 0.0, 0.0, 1.0]])
-                    kin.set_control_point_offset(side, pin.SE3(off))
-            # The controller publishes its frames before the gateway starts: always valid.
-            original = np.vstack([snap.original, [0.0, 0.0, 0.0, 1.0]])
-            kin.set_original_frame(pin.SE3(original), snap.original_theta)
+            # The frames change only on a command (setControlPointOffset, resetOriginalFrame):
+            # set again only when they did (~70 us saved per call). This is the only place
+            # that sets this Kinematics' frames.
+            frames = (snap.offsets.tobytes(), snap.original.tobytes(), snap.original_theta)
+            if frames != self._frames:
+                for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
+                    if side in kin.arms:
+                        off = np.vstack([snap.offsets[k], [0.0, 0.0, 0.0, 1.0]])
+                        kin.set_control_point_offset(side, pin.SE3(off))
+                # The controller publishes its frames before the gateway starts: always valid.
+                original = np.vstack([snap.original, [0.0, 0.0, 0.0, 1.0]])
+                kin.set_original_frame(pin.SE3(original), snap.original_theta)
+                self._frames = frames
             kin.update(snap.q[self.hw_index] if q is None else q)
             yield kin
 

@@ -130,11 +130,11 @@ class SpecAService:
         return f"imotion {__version__} (robot {cfg.robot}, hal {cfg.hal})"
 
     def is_moving(self) -> bool:
-        snap = self.ctx.snapshot()
-        return bool(snap.moving or snap.queue > 0)
+        s = self.ctx.state()
+        return bool(s.moving or s.queue > 0)
 
     def is_servo_on(self) -> bool:
-        return bool(self.ctx.snapshot().servo_on)
+        return bool(self.ctx.state().servo_on)
 
     def feedback_cartesian(self, side_value: int, frame_value: int) -> tuple[np.ndarray, float]:
         """getFeedbackPosCartesian: HgMatrix (3 x 4, [mm]) and elbow [deg]."""

@@ -7,7 +7,7 @@ brought the axes to rest (0x10 alone), even with motions still queued behind the
 
 from __future__ import annotations
 
-from controller.contract.snapshot import Snapshot
+from controller.contract.snapshot import Snapshot, StateHeader
 from controller.vocabulary import CoreState, JaraState, SpecAState
 from hal.interface import HardwareState
 
@@ -32,8 +32,8 @@ _STATE_TEXT = {
 _UNPOWERED = (HardwareState.UNCONFIGURED, HardwareState.FINALIZED)
 
 
-def spec_a_state(s: Snapshot) -> tuple[SpecAState, str]:
-    """Spec A ``getState`` (statusId, message) of a snapshot."""
+def spec_a_state(s: Snapshot | StateHeader) -> tuple[SpecAState, str]:
+    """Spec A ``getState`` (statusId, message) of a snapshot (or of its header alone)."""
     if s.core_state == CoreState.SERVO_OFF and s.hw_state in _UNPOWERED:
         state = SpecAState.UNPOWERED
     else:
@@ -44,8 +44,8 @@ def spec_a_state(s: Snapshot) -> tuple[SpecAState, str]:
     return state, text
 
 
-def jara_state(s: Snapshot) -> JaraState:
-    """JARA_ARM ``getState`` bit set of a snapshot."""
+def jara_state(s: Snapshot | StateHeader) -> JaraState:
+    """JARA_ARM ``getState`` bit set of a snapshot (or of its header alone)."""
     from controller.contract import snapshot as snap
 
     bits = JaraState(0)
