@@ -49,6 +49,7 @@ from controller.model.robot import load_robot  # noqa: E402
 from controller.motion.motions import Motion  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
 from hal.can.backend import CanBackend  # noqa: E402
+from hal.can.setup import interpolation_period  # noqa: E402
 from hal.factory import make_hardware  # noqa: E402
 from hal.interface import JointCommand, JointState  # noqa: E402
 
@@ -73,7 +74,13 @@ def main() -> int:
         result = run(args, args.rate)
         print(json.dumps(result))
         return 0 if not result["alarms"] else 1
-    runs = [run(args, float(rate)) for rate in args.rates.split(",")]
+    rates = [float(rate) for rate in args.rates.split(",")]
+    for rate in rates:  # the drives' 0x60C2 must hold the period exactly (not 667 Hz)
+        try:
+            interpolation_period(1.0 / rate)
+        except ValueError as exc:
+            parser.error(f"--rates: {rate:g} Hz: {exc}")
+    runs = [run(args, rate) for rate in rates]
     print("summary (rate, overruns, alarms, compute p99, wake p99, master CPU p50, load avg):")
     for r in runs:
         print(f"  {r['rate_hz']:7g} Hz  overruns {r['overruns']:6d} / {r['cycles']}  "

@@ -10,28 +10,28 @@ peer, no hub, no thread. Per sender the frames arrive in order (a connection is 
   (``/tmp/imotion-can-<uid>/<name>`` without it). Created with mode 0700; socket paths must
   stay under 108 bytes.
 * ``receive_own_messages``: also deliver what this participant sends (default False).
+* ``hold_pdos``: PDO frames (COB-IDs 0x180-0x57F of the CANopen predefined set, 11-bit) wait
+  in the sender until it sends another frame (a SYNC), reads the sockets to receive, or
+  calls :meth:`UnixBus.flush`; then everything held goes to each peer as one record, in the
+  order sent (default False). A master's cycle (RPDOs, then SYNC) thus costs one system call
+  and one wake-up of each peer per bus, not one per frame. Meant for CANopen participants
+  whose PDOs are synchronous (acted on at the next SYNC): holding them until the SYNC
+  changes nothing they see. One that sends PDOs with no frame after them must call
+  :meth:`UnixBus.flush` (the emulator does after each SYNC it answers).
 * ``fileno()`` is an epoll descriptor, readable while a frame (or a new peer) waits, so
   ``select``, :class:`can.Notifier` and asyncio work as on SocketCAN. ``recv(timeout)``
   waits with ``select`` on it: microseconds, where ``epoll_wait`` would round a 0.4 ms
   wait up to 1 ms.
-* A peer that cannot take a frame right away loses it, counted in :attr:`UnixBus.dropped`,
-  as a CAN controller with a full receive FIFO would: its queue holds :data:`SEND_BUFFER`
-  bytes (thousands of frames: a process held back for tens of ms by a busy host loses
-  nothing). A peer that went away is forgotten. The sender never blocks.
+* A peer that cannot take a record right away loses it (every frame in it), counted in
+  :attr:`UnixBus.dropped`, as a CAN controller with a full receive FIFO would: its queue
+  holds :data:`SEND_BUFFER` bytes (thousands of frames: a process held back for tens of ms
+  by a busy host loses nothing). A peer that went away is forgotten. The sender never
+  blocks.
 
 Why not ``virtual``: it lives in one process. Not ``udp_multicast``: never on this project.
 Not datagram sockets: Linux queues at most ``net.unix.max_dgram_qlen`` (often 10) datagrams
 per unconnected receiver, less than one cycle of a bus. Not python-can-remote: two websockets
 and four threads per frame (~3 ms per SYNC round trip here).
-
-* ``hold_pdos``: PDO frames (COB-IDs 0x180-0x57F of the CANopen predefined set, 11-bit) wait
-  in the sender until it sends another frame (a SYNC), receives, or calls :meth:`UnixBus.flush`;
-  then everything held goes to each peer as one record, in the order sent (default False).
-  A master's cycle (RPDOs, then SYNC) thus costs one system call and one wake-up of each peer
-  per bus, not one per frame. For CANopen participants whose PDOs are synchronous (acted on
-  at the next SYNC), so holding them until the SYNC changes nothing they see; a participant
-  that sends PDOs with no frame after them must call :meth:`UnixBus.flush` (the emulator
-  does after each SYNC it answers).
 
 Frame on the wire: ``<IBBBxd`` (identifier, flags, dlc, data length, timestamp [s]) + data.
 A record (one ``send``) holds one or more frames back to back, at most :data:`MAX_RECORD`
