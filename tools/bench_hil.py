@@ -66,6 +66,8 @@ def main() -> int:
                         help="SCHED_FIFO priority of the emulator process's thread "
                              "(default: 70 with realtime, else 0)")  # fmt: skip
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
+    parser.add_argument("--planner-priority", type=int, default=0,
+                        help="SCHED_FIFO priority of the planning thread (0: normal)")  # fmt: skip
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
     args = parser.parse_args()
@@ -138,6 +140,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     finished = threading.Event()
 
     def planner() -> None:
+        if args.planner_priority:  # SCHED_FIFO: not descheduled while it holds the GIL
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.planner_priority))
         while not finished.is_set():
             if not ready and core.state == CoreState.READY and core.motion is None:
                 core.planning_kinematics()
