@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """HIL benchmark: motion core + CAN backend + drive emulator at a fixed rate.
 
-Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,800,667,500]
+Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,800,625,500]
                                  [--seconds 60] [--emulator process|thread] [--drives PATH]
-                                 [--no-realtime]
+                                 [--planner-priority 50] [--no-realtime]
 
 ``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By default
 the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`): the
@@ -21,7 +21,10 @@ counted apart. ``--drives`` runs another drive profile (e.g.
 ``config/robots/smartpal5/drives-1khz.yaml``, a bus split for 1 kHz). ``--rates`` runs each
 rate in turn (a fresh emulator each), prints a summary line per rate and the highest rate
 without overruns and alarms; the JSON line then holds every run (``runs``) and
-``highest_clean_rate_hz``.
+``highest_clean_rate_hz``. ``--planner-priority`` runs the planning thread under SCHED_FIFO
+(below the loop's 80 and the emulator's 70): a planner that the host deschedules while it
+holds the GIL stalls the real-time loop for as long (the daemon's planner runs at normal
+priority: the default 0 measures that).
 """
 
 from __future__ import annotations
