@@ -183,7 +183,10 @@ def make_hil_backend(robot: Robot, dt: float, options: dict[str, Any] | None = N
         drives = Path(options["drives"]) if "drives" in options else None
         child = EmulatorProcess(robot, dt, list(s.profile.buses), drives, priority=priority)
         try:
-            buses = {b: {"interface": INTERFACE, "channel": c} for b, c in child.channels.items()}
+            buses = {
+                b: {"interface": INTERFACE, "channel": c, "hold_pdos": True}
+                for b, c in child.channels.items()
+            }
             backend = CanBackend(robot, dt, s.profile, s.directory, buses, **s.timing)
         except BaseException:
             child.close()

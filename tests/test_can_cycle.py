@@ -147,3 +147,57 @@ def test_heartbeat_only_when_due(rig: Rig):
 
 def test_poller_is_the_fast_path_on_a_plain_bus(rig: Rig):
     assert poller(rig.bus) == rig.bus._recv_internal
+
+
+def test_receive_waits_on_every_bus_at_once_where_buses_have_descriptors(tmp_path):
+    """unix buses (fileno): missing TPDOs on two buses are waited for with one select; a
+    bus whose drive never answers ends the wait at the deadline, the others are kept."""
+    import threading
+
+    from hal.can.unix_bus import UnixBus
+
+    masters = [UnixBus(str(tmp_path / b)) for b in "ab"]
+    drives = [UnixBus(str(tmp_path / b)) for b in "ab"]
+    try:
+        ports = [
+            Port(b, bus, [i], {c: (k, i) for c, (k, _) in pdo.receive_table([NODES[i]]).items()},
+                 can.Message(arbitration_id=pdo.SYNC, data=b"", is_extended_id=False),
+                 can.Message(arbitration_id=0x77F, data=b"\x05", is_extended_id=False))
+            for i, (b, bus) in enumerate(zip("ab", masters, strict=True))
+        ]  # fmt: skip
+        assert all(p.fd is not None for p in ports)
+        sup = Supervisor(["a", "b"], NODES[:2], ["a", "b"], 0.002, np.full(2, 0.1), 0.006, 0.3, 3)
+        waiting = threading.Event()
+        now = [0.0]
+
+        def clock() -> float:  # called only while receive() waits
+            waiting.set()
+            return now[0]
+
+        io = CycleIO(ports, NODES[:2], sup, lambda faults: None, clock, 0.1)
+        for bus in masters:
+            assert bus.recv(0.0) is None  # accept the drives
+
+        def tpdo1(i: int, position: int) -> can.Message:
+            data = bytes([0x27, 0, position, 0, 0, 0])
+            return can.Message(arbitration_id=pdo.TPDO1 + NODES[i], data=data, is_extended_id=False)
+
+        def answer() -> None:
+            assert waiting.wait(5.0)
+            for i, bus in enumerate(drives):
+                bus.send(tpdo1(i, i + 1))
+
+        thread = threading.Thread(target=answer)
+        thread.start()
+        io.clear_fresh()
+        io.receive(deadline=1.0)  # the fake clock never reaches it: returns when all came
+        thread.join()
+        assert io.fresh.all() and io.position == [1, 2]
+        io.clear_fresh()
+        drives[0].send(tpdo1(0, 7))
+        now[0] = 1.0
+        io.receive(deadline=1.0)  # deadline reached: bus b's drive is missing, a's is read
+        assert list(io.fresh) == [True, False] and io.position == [7, 2]
+    finally:
+        for bus in masters + drives:
+            bus.shutdown()

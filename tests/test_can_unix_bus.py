@@ -9,7 +9,7 @@ import can
 import pytest
 
 import hal.can  # noqa: F401  (registers interface "unix")
-from hal.can.unix_bus import UnixBus, bus_directory, decode, encode
+from hal.can.unix_bus import MAX_RECORD, UnixBus, bus_directory, decode, encode, frames
 
 TIMEOUT = 5.0  # [s] bound of every wait (never asserted as a time)
 
@@ -145,3 +145,87 @@ def test_raw_frames_match_the_message_api(channel):
             (0x080, b""),
         ]
         assert frames[0][0] <= frames[1][0]  # sender timestamps, in order
+
+
+def test_held_pdos_go_with_the_next_frame_as_one_record(channel):
+    """hold_pdos: RPDOs wait for the SYNC; the peer gets them in order, one record."""
+    with (
+        UnixBus(channel, hold_pdos=True) as master,
+        socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET) as wire,
+    ):
+        wire.connect(str(master.path))
+        assert master.recv(0.0) is None and master.peers == 1  # accepts it
+        for k in range(3):
+            master.send(message(0x201 + k, bytes([k] * 6)))
+        assert select.select([wire], [], [], 0.0)[0] == []  # nothing on the wire yet
+        master.send(message(0x080))  # SYNC: not a PDO, goes after the held ones
+        wire.settimeout(TIMEOUT)
+        got = frames(wire.recv(MAX_RECORD))  # one record
+        assert [(can_id, data) for can_id, _, _, _, data in got] == [
+            (0x201, bytes(6)), (0x202, bytes([1] * 6)), (0x203, bytes([2] * 6)), (0x080, b"")
+        ]  # fmt: skip
+        assert select.select([wire], [], [], 0.0)[0] == []
+    with UnixBus(channel, hold_pdos=True) as master, UnixBus(channel) as drive:
+        assert master.recv(0.0) is None
+        # extended frames in the PDO range are not held; flush() and a receive send the rest
+        master.send(can.Message(arbitration_id=0x181, data=b"\x01"))
+        assert drive.recv(TIMEOUT).is_extended_id
+        master.send(message(0x181, b"\x02"))
+        master.flush()
+        assert bytes(drive.recv(TIMEOUT).data) == b"\x02"
+        master.send(message(0x182, b"\x03"))
+        assert master.recv(0.0) is None  # receiving sends what is held first
+        assert bytes(drive.recv(TIMEOUT).data) == b"\x03"
+
+
+def test_without_hold_every_frame_goes_at_once(channel):
+    with UnixBus(channel) as a, UnixBus(channel) as b:
+        assert a.recv(0.0) is None
+        a.send(message(0x201, bytes(6)))
+        assert select.select([b], [], [], TIMEOUT)[0] == [b]
+        assert b.recv(0.0).arbitration_id == 0x201
+
+
+def test_held_frames_beyond_a_record_split_in_order(channel):
+    with UnixBus(channel, hold_pdos=True) as master, UnixBus(channel) as drive:
+        assert master.recv_raw() == []
+        count = 2 * MAX_RECORD // 22 + 5  # 22-byte frames: over two records' worth
+        for k in range(count):
+            master.send_raw(0x181 + k % 4, k.to_bytes(6, "little"))
+        master.flush()
+        got: list[tuple[float, int, bytes]] = []
+        for _ in range(100):  # bounded: until every frame came
+            got += drive.recv_raw()
+            if len(got) >= count:
+                break
+            select.select([drive], [], [], 0.05)
+        assert [int.from_bytes(d, "little") for _, _, d in got] == list(range(count))
+
+
+def test_records_split_into_frames_and_bad_records_are_dropped(channel, caplog):
+    fields = [
+        (0x181, 0, 6, 1.0, bytes(6)),
+        (0x80, 0, 0, 2.0, b""),
+        (0x1ABCDE, 1, 2, 3.0, b"\x01\x02"),
+    ]
+    record = b"".join(
+        encode(can.Message(arbitration_id=i, is_extended_id=bool(f), data=d, timestamp=t))
+        for i, f, _, t, d in fields
+    )
+    assert frames(record) == fields
+    with pytest.raises(ValueError, match="cut"):
+        frames(record[:-1])
+    with UnixBus(channel) as a, socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET) as raw:
+        raw.connect(str(a.path))
+        raw.send(record[:-1])  # cut: the whole frames before the cut, the rest dropped
+        raw.send(record)
+        got = [a.recv(TIMEOUT) for _ in range(5)]
+        assert [m.arbitration_id for m in got[:2]] == [0x181, 0x80]
+        got = got[2:]
+        assert [(m.arbitration_id, m.is_extended_id, m.timestamp) for m in got] == [
+            (0x181, False, 1.0), (0x80, False, 2.0), (0x1ABCDE, True, 3.0)
+        ]  # fmt: skip
+        assert "cut" in caplog.text
+        raw.send(record)
+        select.select([a], [], [], TIMEOUT)
+        assert [(c, d) for _, c, d in a.recv_raw()] == [(0x181, bytes(6)), (0x80, b"")]

@@ -121,6 +121,7 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
     for bus, channel in channels.items():
         cmd += ["--set", f"hal_options.buses.{bus}.interface=unix"]
         cmd += ["--set", f"hal_options.buses.{bus}.channel={channel}"]
+        cmd += ["--set", f"hal_options.buses.{bus}.hold_pdos=true"]  # a cycle: one record
     log_path = tmp_path / "imotiond.log"
     with open(log_path, "w") as log:
         daemon = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)

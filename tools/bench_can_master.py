@@ -15,9 +15,15 @@ whole cycle (``read()`` + ``write()``, as the control loop calls them) p50/p99/m
 the median (and mean) of each phase from a second, instrumented pass. Usage::
 
     python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000]
+    python tools/bench_can_master.py --hil [--seconds 10] [--drives PATH]
 
-Prints figures and a final JSON line. :func:`measure_master` is the measurement as a
-function (e.g. for tools/bench_hil.py).
+``--hil``: the same backend on ``unix`` buses against the drive emulator process, as
+``--hal hil`` builds it (:mod:`hal.hil`), paced at the rate (the emulator needs its period),
+emulator SCHED_FIFO 70 and this thread 80 where allowed. Reported: the thread CPU time
+[µs] of ``read()``, ``write()`` and both per cycle (the transport's system calls included,
+the waits not): what the master costs on a transport between processes, beside the stub's
+figure. Prints figures and a final JSON line. :func:`measure_master` and
+:func:`measure_master_hil` are the measurements as functions (e.g. for tools/bench_hil.py).
 """
 
 from __future__ import annotations
@@ -187,12 +193,101 @@ def measure_master(
         backend.shutdown()
 
 
+def measure_master_hil(
+    robot_id: str = "smartpal5",
+    rate: float = 500.0,
+    seconds: float = 10.0,
+    drives: str | None = None,
+    warmup: float = 1.0,
+) -> dict[str, object]:
+    """The master's thread CPU time per cycle [µs] on ``unix`` buses against the emulator
+    process (module doc), over ``seconds`` after ``warmup`` [s]; read, write, cycle stats."""
+    from hal.factory import make_hardware
+
+    robot = load_robot(robot_id)
+    dt = 1.0 / rate
+    options: dict[str, object] = {"emulator": "process", "emulator_priority": 70}
+    if drives:
+        options["drives"] = drives
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(80))
+        realtime = True
+    except (AttributeError, OSError):
+        options["emulator_priority"] = 0
+        realtime = False
+    backend = make_hardware("hil", robot, dt, options)
+    assert isinstance(backend, CanBackend)
+    reads: list[int] = []
+    writes: list[int] = []
+    try:
+        backend.configure()
+        backend.read()
+        backend.activate()
+        base = backend.read().position.copy()
+        phase = np.linspace(0.0, 2.0 * np.pi, len(base), endpoint=False)
+        clock = time.thread_time_ns
+        skip = int(warmup * rate)
+        deadline = time.monotonic()
+        for k in range(skip + int(seconds * rate)):
+            deadline += dt
+            left = deadline - time.monotonic()
+            if left > 0:
+                time.sleep(left)
+            command = JointCommand(base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase))
+            t0 = clock()
+            backend.read()
+            t1 = clock()
+            backend.write(command)
+            t2 = clock()
+            if k >= skip:
+                reads.append(t1 - t0)
+                writes.append(t2 - t1)
+        state, faults = backend.state, backend.faults()
+    finally:
+        backend.shutdown()
+        if realtime:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    if state is not HardwareState.ACTIVE or faults:
+        raise RuntimeError(f"the master left ACTIVE: {faults}")
+    return {
+        "robot": robot_id,
+        "rate_hz": rate,
+        "transport": "unix",
+        "drives": len(backend.drive_names),
+        "buses": len(backend.profile.buses),
+        "cycles": len(reads),
+        "realtime": realtime,
+        "cpu_cycle": _stats([r + w for r, w in zip(reads, writes, strict=True)]),
+        "cpu_read": _stats(reads),
+        "cpu_write": _stats(writes),
+        "loadavg": [round(x, 2) for x in os.getloadavg()],
+    }
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="smartpal5")
     parser.add_argument("--rate", type=float, default=500.0, help="[Hz] loop rate (the period)")
     parser.add_argument("--cycles", type=int, default=20000)
+    parser.add_argument("--hil", action="store_true", help="unix buses, emulator process")
+    parser.add_argument("--seconds", type=float, default=10.0, help="--hil: run time [s]")
+    parser.add_argument("--drives", help="--hil: another drive profile")
     args = parser.parse_args()
+    if args.hil:
+        hil = measure_master_hil(args.robot, args.rate, args.seconds, args.drives)
+        print(
+            f"CAN master on unix buses against the emulator process: {args.robot}, "
+            f"{hil['drives']} drives on {hil['buses']} buses, {args.rate:g} Hz, "
+            f"{hil['cycles']} cycles, SCHED_FIFO {'on' if hil['realtime'] else 'off'}"
+        )
+        for name in ("cpu_cycle", "cpu_read", "cpu_write"):
+            figures = hil[name]
+            assert isinstance(figures, dict)
+            print(f"{name:9s} thread CPU [µs]: p50 {figures['p50_us']:.1f}  "
+                  f"p99 {figures['p99_us']:.1f}  mean {figures['mean_us']:.1f}")  # fmt: skip
+        print(f"load average {hil['loadavg']} (2 cores, shared)")
+        print(json.dumps(hil))
+        return 0
     result = measure_master(args.robot, args.rate, args.cycles)
     cycle = result["cycle"]
     phases = result["phases_p50_us"]

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """HIL benchmark: motion core + CAN backend + drive emulator at a fixed rate.
 
-Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500] [--seconds 60]
-                                 [--emulator process|thread] [--drives PATH] [--no-realtime]
+Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,800,625,500]
+                                 [--seconds 60] [--emulator process|thread] [--drives PATH]
+                                 [--planner-priority 50] [--no-realtime]
 
 ``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By default
 the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`): the
@@ -13,8 +14,17 @@ back). Prints cycle compute time (p50/p99/max, read + QP + write), wake latency,
 misses (overruns), alarms, frames per second and load per bus (worst-case bit lengths of the
 frames actually sent and received), the master's own share per cycle (``read()`` +
 ``write()``: thread CPU time, i.e. encode, send, receive, decode, supervision without the
-waits; and wall time, waits included), the load average, and as the last line a JSON object.
-``--drives`` runs another drive profile (e.g. a bus split for 1 kHz).
+waits; and wall time, waits included), the CPU time per cycle of the emulator process and
+of this process (all threads), the load average, and as the last line a JSON object. Alarms
+(FAULT type: the loop stops) and warnings (e.g. a motion that ended off its target) are
+counted apart. ``--drives`` runs another drive profile (e.g.
+``config/robots/smartpal5/drives-1khz.yaml``, a bus split for 1 kHz). ``--rates`` runs each
+rate in turn (a fresh emulator each), prints a summary line per rate and the highest rate
+without overruns and alarms; the JSON line then holds every run (``runs``) and
+``highest_clean_rate_hz``. ``--planner-priority`` runs the planning thread under SCHED_FIFO
+(below the loop's 80 and the emulator's 70): a planner that the host deschedules while it
+holds the GIL stalls the real-time loop for as long (the daemon's planner runs at normal
+priority: the default 0 measures that).
 """
 
 from __future__ import annotations
@@ -26,6 +36,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -36,10 +47,12 @@ from bench_loop import script  # noqa: E402
 
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
+from controller.model.alarms import AlarmType  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
 from controller.motion.motions import Motion  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
 from hal.can.backend import CanBackend  # noqa: E402
+from hal.can.setup import interpolation_period  # noqa: E402
 from hal.factory import make_hardware  # noqa: E402
 from hal.interface import JointCommand, JointState  # noqa: E402
 
@@ -48,6 +61,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="smartpal5")
     parser.add_argument("--rate", type=float, default=500.0)
+    parser.add_argument("--rates", help="comma-separated rates [Hz], each run in turn")
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--emulator", choices=("process", "thread"), default="process")
     parser.add_argument("--drives", help="another drive profile (default: the robot's)")
@@ -55,13 +69,41 @@ def main() -> int:
                         help="SCHED_FIFO priority of the emulator process's thread "
                              "(default: 70 with realtime, else 0)")  # fmt: skip
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
+    parser.add_argument("--planner-priority", type=int, default=0,
+                        help="SCHED_FIFO priority of the planning thread (0: normal)")  # fmt: skip
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
     args = parser.parse_args()
     sys.setswitchinterval(args.switch_interval)
+    if not args.rates:
+        result = run(args, args.rate)
+        print(json.dumps(result))
+        return 0 if not result["alarms"] else 1
+    rates = [float(rate) for rate in args.rates.split(",")]
+    for rate in rates:  # the drives' 0x60C2 must hold the period exactly (not 667 Hz)
+        try:
+            interpolation_period(1.0 / rate)
+        except ValueError as exc:
+            parser.error(f"--rates: {rate:g} Hz: {exc}")
+    runs = [run(args, rate) for rate in rates]
+    print("summary (rate, overruns, alarms, compute p99, wake p99, master CPU p50, load avg):")
+    for r in runs:
+        print(f"  {r['rate_hz']:7g} Hz  overruns {r['overruns']:6d} / {r['cycles']}  "
+              f"alarms {r['alarms']}  compute p99 {r['compute_us_p99']:7.1f} us  "
+              f"wake p99 {r['wake_latency_us_p99']:7.1f} us  "
+              f"master {r['master_cpu_us_p50']:6.1f} us  "
+              f"load {r['load_average'][0]:.2f}")  # fmt: skip
+    clean = [r["rate_hz"] for r in runs if not r["overruns"] and not r["alarms"]]
+    best = max(clean) if clean else None
+    print(f"highest rate without overruns and alarms: {f'{best:g} Hz' if best else 'none'}")
+    print(json.dumps({"runs": runs, "highest_clean_rate_hz": best}))
+    return 0
 
+
+def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
+    """One run at ``rate`` [Hz] (module doc); prints its figures, returns them."""
     robot = load_robot(args.robot)
-    dt = 1.0 / args.rate
+    dt = 1.0 / rate
     options: dict[str, object] = {"emulator": args.emulator}
     priority = args.emulator_priority
     if priority is None:
@@ -101,6 +143,8 @@ def main() -> int:
     finished = threading.Event()
 
     def planner() -> None:
+        if args.planner_priority:  # SCHED_FIFO: not descheduled while it holds the GIL
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.planner_priority))
         while not finished.is_set():
             if not ready and core.state == CoreState.READY and core.motion is None:
                 core.planning_kinematics()
@@ -125,12 +169,22 @@ def main() -> int:
     thread.start()
     bits0, sent0, recv0 = dict(hw.bits), dict(hw.frames_sent), dict(hw.frames_received)
     loop = FixedRateLoop(
-        args.rate, step, realtime=not args.no_realtime,
-        stats_capacity=int(args.rate * args.seconds) + 10,
+        rate, step, realtime=not args.no_realtime,
+        stats_capacity=int(rate * args.seconds) + 10,
     )  # fmt: skip
+    child = getattr(getattr(hw, "emulator", None), "process", None)
+    emulator_cpu0 = process_cpu(child.pid) if child is not None else None
+    own_cpu0 = sum(os.times()[:2])
     start = time.monotonic()
-    loop.run(max_cycles=int(args.rate * args.seconds))
+    loop.run(max_cycles=int(rate * args.seconds))
     elapsed = time.monotonic() - start
+    own_cpu = sum(os.times()[:2]) - own_cpu0
+    emulator_cpu1 = process_cpu(child.pid) if child is not None else None
+    emulator_cpu = (
+        emulator_cpu1 - emulator_cpu0
+        if emulator_cpu0 is not None and emulator_cpu1 is not None
+        else None
+    )
     finished.set()
     thread.join()
     stats = loop.stats.summary()
@@ -144,7 +198,7 @@ def main() -> int:
         }
     hw.shutdown()
     load = os.getloadavg()
-    skip = int(args.rate)  # the first second: set-up, enabling
+    skip = min(int(rate), len(master_cpu) // 2)  # the first second: set-up, enabling
     cpu = np.array(master_cpu[skip:] or [0.0]) * 1e6
     wall = np.array(master_wall[skip:] or [0.0]) * 1e6
     master = {
@@ -153,8 +207,17 @@ def main() -> int:
         "master_wall_us_p50": round(float(np.percentile(wall, 50)), 1),
         "master_wall_us_p99": round(float(np.percentile(wall, 99)), 1),
     }
+    cycles = max(1, int(stats["cycles"]))
+    cpu_share = {
+        "process_cpu_us_per_cycle": round(own_cpu / cycles * 1e6, 1),
+        "emulator_cpu_us_per_cycle": (
+            round(emulator_cpu / cycles * 1e6, 1) if emulator_cpu is not None else None
+        ),
+    }
+    alarms = [a for a in core.alarms if a.type == AlarmType.FAULT]
+    warnings = [a for a in core.alarms if a.type != AlarmType.FAULT]
     print(
-        f"HIL {args.robot}, {args.rate:g} Hz, {args.seconds:g} s, {len(buses)} buses, "
+        f"HIL {args.robot}, {rate:g} Hz, {args.seconds:g} s, {len(buses)} buses, "
         f"emulator {args.emulator}, "
         f"{done['motions']} motions ({done['skipped']} skipped), state {core.state.value}"
     )
@@ -173,29 +236,46 @@ def main() -> int:
         f"p99 {master['master_cpu_us_p99']:.1f} us; wall p50 {master['master_wall_us_p50']:.1f} "
         f"p99 {master['master_wall_us_p99']:.1f} us"
     )
+    emulator_text = (
+        f"{cpu_share['emulator_cpu_us_per_cycle']:.1f}" if emulator_cpu is not None else "-"
+    )
+    own = cpu_share["process_cpu_us_per_cycle"]
+    print(f"CPU per cycle [us]: this process (loop, master, planner) {own:.1f}, "
+          f"emulator process {emulator_text}")  # fmt: skip
     print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} ({os.cpu_count()} CPUs)")
     for name, figures in buses.items():
         print(f"bus {name:15s} {figures['frames_per_s']:8.1f} frames/s  "
               f"{figures['load_percent']:5.1f} % load")  # fmt: skip
-    if core.alarms:
-        print(f"alarms: {core.alarms}")
+    for name, found in (("alarms", alarms), ("warnings", warnings)):
+        if found:
+            print(f"{name}: " + "; ".join(f"0x{a.code:03X} {a.description}" for a in found))
     result = {
         "robot": args.robot,
-        "rate_hz": args.rate,
+        "rate_hz": rate,
         "emulator": args.emulator,
         "emulator_priority": priority if args.emulator == "process" else None,
         "drives": args.drives,
         "load_average": [round(x, 2) for x in load],
         **master,
+        **cpu_share,
         "seconds": args.seconds,
         "motions": done["motions"],
-        "alarms": len(core.alarms),
+        "alarms": len(alarms),
+        "warnings": len(warnings),
         "lockstep_timeouts": hw.lockstep_timeouts,
         "buses": buses,
         **stats,
     }
-    print(json.dumps(result))
-    return 0 if not core.alarms else 1
+    return result
+
+
+def process_cpu(pid: int) -> float | None:
+    """User + system CPU time [s] of process ``pid`` so far (Linux /proc), None if unknown."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 if __name__ == "__main__":

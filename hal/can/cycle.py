@@ -23,6 +23,7 @@ Used by the backend (:mod:`hal.can.backend`, all drives) and by ``imotion-can`` 
 
 from __future__ import annotations
 
+import select
 from collections.abc import Callable, Sequence
 
 import can
@@ -158,26 +159,54 @@ class CycleIO:
 
     def receive(self, deadline: float | None = None) -> None:
         """Decode every frame waiting on the buses; with ``deadline`` (the clock's time [s])
-        wait until then for the TPDO1 of every drive not fresh yet."""
+        wait until then for the TPDO1 of every drive not fresh yet: one ``select`` over the
+        buses that have a file descriptor (:attr:`Port.fd`), ``recv(timeout)`` bus after bus
+        on the others."""
         for port in self.ports:
             self._drain(port)
-        if deadline is None or self.fresh.all():
+        if deadline is None or 0 not in self._fresh:  # (bytes: cheaper than numpy here)
             return
-        fresh = self.fresh
-        for port in self.ports:
-            while not fresh[port.drives].all() and not port.failed:
-                left = deadline - self.clock()
-                if left <= 0:
-                    break
-                try:
-                    msg = port.bus.recv(left)
-                except BUS_ERRORS as exc:
+        waiting = [p for p in self.ports if self._missing(p)]
+        selectable = {p.fd: p for p in waiting if p.fd is not None}
+        while selectable:
+            left = deadline - self.clock()
+            if left <= 0:
+                break
+            try:
+                ready = select.select(list(selectable), [], [], left)[0]
+            except (OSError, ValueError) as exc:
+                for port in selectable.values():
                     self._receive_failed(port, exc)
-                    break
-                if msg is None:
-                    break
-                self._decode(port, msg)
-            self._drain(port)
+                break
+            for fd in ready:
+                port = selectable[fd]
+                self._drain(port)
+                if not self._missing(port):
+                    del selectable[fd]
+        for port in waiting:
+            if port.fd is None:
+                self._wait(port, deadline)
+
+    def _missing(self, port: Port) -> bool:
+        """Some drive of ``port`` has not sent its TPDO1 yet (and the bus works)."""
+        fresh = self._fresh
+        return not port.failed and not all(fresh[i] for i in port.drives)
+
+    def _wait(self, port: Port, deadline: float) -> None:
+        """``recv(timeout)`` on ``port`` until its drives are fresh or ``deadline``."""
+        while self._missing(port):
+            left = deadline - self.clock()
+            if left <= 0:
+                break
+            try:
+                msg = port.bus.recv(left)
+            except BUS_ERRORS as exc:
+                self._receive_failed(port, exc)
+                break
+            if msg is None:
+                break
+            self._decode(port, msg)
+        self._drain(port)
 
     def _drain(self, port: Port) -> None:
         poll, table = port.poll, port.table

@@ -87,6 +87,8 @@ class Port:
     #: when the bus has no filters and keeps BusABC's ``recv`` (which only adds filtering
     #: and debug logging), else ``recv``.
     poll: Callable[[float], tuple[can.Message | None, bool]] = field(init=False)
+    #: The bus's file descriptor to wait on (``select``), or None (``virtual``, stub buses).
+    fd: int | None = field(init=False)
     frames_sent: int = 0
     frames_received: int = 0
     syncs_sent: int = 0
@@ -95,6 +97,16 @@ class Port:
 
     def __post_init__(self) -> None:
         self.poll = poller(self.bus)
+        self.fd = descriptor(self.bus)
+
+
+def descriptor(bus: can.BusABC) -> int | None:
+    """``bus.fileno()`` if the interface has one (socketcan, unix), else None."""
+    try:
+        fd = bus.fileno()
+    except (NotImplementedError, OSError, AttributeError, ValueError):
+        return None
+    return fd if isinstance(fd, int) and fd >= 0 else None
 
 
 def poller(bus: can.BusABC) -> Callable[[float], tuple[can.Message | None, bool]]:

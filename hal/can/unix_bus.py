@@ -10,12 +10,23 @@ peer, no hub, no thread. Per sender the frames arrive in order (a connection is 
   (``/tmp/imotion-can-<uid>/<name>`` without it). Created with mode 0700; socket paths must
   stay under 108 bytes.
 * ``receive_own_messages``: also deliver what this participant sends (default False).
+* ``hold_pdos``: PDO frames (COB-IDs 0x180-0x57F of the CANopen predefined set, 11-bit) wait
+  in the sender until it sends another frame (a SYNC), reads the sockets to receive, or
+  calls :meth:`UnixBus.flush`; then everything held goes to each peer as one record, in the
+  order sent (default False). A master's cycle (RPDOs, then SYNC) thus costs one system call
+  and one wake-up of each peer per bus, not one per frame. Meant for CANopen participants
+  whose PDOs are synchronous (acted on at the next SYNC): holding them until the SYNC
+  changes nothing they see. One that sends PDOs with no frame after them must call
+  :meth:`UnixBus.flush` (the emulator does after each SYNC it answers).
 * ``fileno()`` is an epoll descriptor, readable while a frame (or a new peer) waits, so
-  ``select``, :class:`can.Notifier` and asyncio work as on SocketCAN.
-* A peer that cannot take a frame right away loses it, counted in :attr:`UnixBus.dropped`,
-  as a CAN controller with a full receive FIFO would: its queue holds :data:`SEND_BUFFER`
-  bytes (thousands of frames: a process held back for tens of ms by a busy host loses
-  nothing). A peer that went away is forgotten. The sender never blocks.
+  ``select``, :class:`can.Notifier` and asyncio work as on SocketCAN. ``recv(timeout)``
+  waits with ``select`` on it: microseconds, where ``epoll_wait`` would round a 0.4 ms
+  wait up to 1 ms.
+* A peer that cannot take a record right away loses it (every frame in it), counted in
+  :attr:`UnixBus.dropped`, as a CAN controller with a full receive FIFO would: its queue
+  holds :data:`SEND_BUFFER` bytes (thousands of frames: a process held back for tens of ms
+  by a busy host loses nothing). A peer that went away is forgotten. The sender never
+  blocks.
 
 Why not ``virtual``: it lives in one process. Not ``udp_multicast``: never on this project.
 Not datagram sockets: Linux queues at most ``net.unix.max_dgram_qlen`` (often 10) datagrams
@@ -23,6 +34,8 @@ per unconnected receiver, less than one cycle of a bus. Not python-can-remote: t
 and four threads per frame (~3 ms per SYNC round trip here).
 
 Frame on the wire: ``<IBBBxd`` (identifier, flags, dlc, data length, timestamp [s]) + data.
+A record (one ``send``) holds one or more frames back to back, at most :data:`MAX_RECORD`
+bytes; a receiver splits it.
 """
 
 from __future__ import annotations
@@ -45,7 +58,10 @@ log = logging.getLogger(__name__)
 
 INTERFACE = "unix"
 _HEADER = struct.Struct("<IBBBxd")
-_MAX_FRAME = _HEADER.size + 64
+#: Largest record [bytes] (one ``send``): held frames beyond it go in another record.
+MAX_RECORD = 4096
+#: COB-IDs held with ``hold_pdos`` (TPDO1 0x180 .. RPDO4 0x57F, predefined connection set).
+PDO_FIRST, PDO_LAST = 0x180, 0x57F
 _EXTENDED, _REMOTE, _ERROR, _FD, _BRS, _ESI = 1, 2, 4, 8, 16, 32
 _PATH_MAX = 107
 #: Send buffer per peer connection [bytes] (the kernel caps it at net.core.wmem_max): how
@@ -72,6 +88,13 @@ def bus_directory(channel: str | os.PathLike[str]) -> Path:
 
 def encode(msg: can.Message) -> bytes:
     """One frame on the wire (module doc)."""
+    data = msg.data or b""
+    if not (
+        msg.is_extended_id or msg.is_remote_frame or msg.is_error_frame or msg.is_fd
+        or msg.bitrate_switch or msg.error_state_indicator
+    ):  # fmt: skip
+        stamp = msg.timestamp or time.time()  # a classic 11-bit data frame: the usual one
+        return _HEADER.pack(msg.arbitration_id, 0, msg.dlc, len(data), stamp) + data
     flags = (
         (_EXTENDED if msg.is_extended_id else 0)
         | (_REMOTE if msg.is_remote_frame else 0)
@@ -80,18 +103,33 @@ def encode(msg: can.Message) -> bytes:
         | (_BRS if msg.bitrate_switch else 0)
         | (_ESI if msg.error_state_indicator else 0)
     )
-    data = bytes(msg.data or b"")
     stamp = msg.timestamp or time.time()
-    return _HEADER.pack(msg.arbitration_id, flags, msg.dlc, len(data), stamp) + data
+    return _HEADER.pack(msg.arbitration_id, flags, msg.dlc, len(data), stamp) + bytes(data)
 
 
-def decode(frame: bytes, channel: str) -> can.Message:
-    """The message of a wire frame; ValueError if it is malformed."""
-    if len(frame) < _HEADER.size:
-        raise ValueError(f"unix bus {channel}: frame of {len(frame)} bytes")
-    can_id, flags, dlc, size, stamp = _HEADER.unpack_from(frame)
-    if len(frame) != _HEADER.size + size:
-        raise ValueError(f"unix bus {channel}: frame length {len(frame)} != {_HEADER.size + size}")
+def frames(record: bytes) -> list[tuple[int, int, int, float, bytes]]:
+    """``(identifier, flags, dlc, timestamp [s], data)`` of each frame of one record (module
+    doc); ValueError if the record does not split exactly into frames."""
+    out, start, size, header = [], 0, len(record), _HEADER.size
+    unpack = _HEADER.unpack_from
+    while start < size:
+        if start + header > size:
+            raise ValueError(f"record of {size} bytes cut at byte {start}")
+        can_id, flags, dlc, length, stamp = unpack(record, start)
+        end = start + header + length
+        if end > size:
+            raise ValueError(f"record of {size} bytes cut at byte {start}")
+        out.append((can_id, flags, dlc, stamp, record[start + header : end]))
+        start = end
+    return out
+
+
+def message(
+    can_id: int, flags: int, dlc: int, stamp: float, data: bytes, channel: str
+) -> can.Message:
+    """The :class:`can.Message` of one frame's fields (:func:`frames`)."""
+    if not flags:  # a classic 11-bit data frame: the usual one (positional: cheaper)
+        return can.Message(stamp, can_id, False, False, False, channel, dlc, data)
     return can.Message(
         timestamp=stamp,
         arbitration_id=can_id,
@@ -102,9 +140,19 @@ def decode(frame: bytes, channel: str) -> can.Message:
         bitrate_switch=bool(flags & _BRS),
         error_state_indicator=bool(flags & _ESI),
         dlc=dlc,
-        data=frame[_HEADER.size :],
+        data=data,
         channel=channel,
     )
+
+
+def decode(frame: bytes, channel: str) -> can.Message:
+    """The message of a record holding one frame; ValueError if it is malformed."""
+    if len(frame) < _HEADER.size:
+        raise ValueError(f"unix bus {channel}: frame of {len(frame)} bytes")
+    size = _HEADER.unpack_from(frame)[3]
+    if len(frame) != _HEADER.size + size:
+        raise ValueError(f"unix bus {channel}: frame length {len(frame)} != {_HEADER.size + size}")
+    return message(*frames(frame)[0], channel)
 
 
 class UnixBus(can.BusABC):
@@ -115,16 +163,21 @@ class UnixBus(can.BusABC):
         channel: Any,
         can_filters: can.typechecking.CanFilters | None = None,
         receive_own_messages: bool = False,
+        hold_pdos: bool = False,
         **kwargs: object,
     ):
         self.directory = bus_directory(channel)
+        self._channel = os.fspath(self.directory)
         self.channel_info = f"unix bus {self.directory}"
         self.receive_own_messages = receive_own_messages
+        self.hold_pdos = bool(hold_pdos)
+        #: Frames held (``hold_pdos``) and their total length [bytes].
+        self._held: list[bytes] = []
+        self._held_size = 0
         #: Frames a peer could not take (its queue was full).
         self.dropped = 0
-        self._own: list[can.Message] = []
-        #: Frames read from the peers, not yet returned (raw, oldest first).
-        self._pending: deque[bytes] = deque()
+        #: Messages read (and own ones), not yet returned, oldest first.
+        self._pending: deque[can.Message] = deque()
         self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)
         self.path = self.directory / f"{os.getpid()}-{next(_counter)}"
         if len(os.fsencode(self.path)) > _PATH_MAX:
@@ -154,72 +207,71 @@ class UnixBus(can.BusABC):
         return self._epoll.fileno()
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        """Send ``msg`` to every other participant (never blocks; see the module doc).
-        Participants that joined since the last receive get it from the next one on."""
+        """Send ``msg`` to every other participant (never blocks; see the module doc), or
+        hold it (``hold_pdos``). Participants that joined since the last receive get it from
+        the next one on."""
         frame = encode(msg)
-        for fd, peer in list(self._peers.items()):
-            try:
-                peer.send(frame)
-            except BlockingIOError:
-                self._dropped()
-            except OSError:  # the peer went away
-                self._forget(fd)
         if self.receive_own_messages:
-            own = decode(frame, os.fspath(self.directory))
-            self._own.append(own)
+            self._pending.append(decode(frame, self._channel))
+        if self.hold_pdos and PDO_FIRST <= msg.arbitration_id <= PDO_LAST:
+            if not msg.is_extended_id:
+                self._hold(frame)
+                return
+        self._send_record(frame)
+
+    def flush(self) -> None:
+        """Send the frames held (``hold_pdos``) now, as one record per peer."""
+        if self._held:
+            self._send_record(b"")
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
-        if self._own:
-            return self._own.pop(0), False
-        channel = os.fspath(self.directory)
         pending = self._pending
-        if not pending:
-            self._fill(0.0)
-            if not pending and timeout != 0.0:
-                deadline = None if timeout is None else time.monotonic() + timeout
-                while not pending:
-                    left = -1.0 if deadline is None else deadline - time.monotonic()
-                    if deadline is not None and left <= 0.0:
-                        break
-                    self._fill(left)
-        while pending:
-            try:
-                return decode(pending.popleft(), channel), False
-            except ValueError as exc:
-                log.warning("%s", exc)
-        return None, False
+        if pending:
+            return pending.popleft(), False
+        if self._held:  # before waiting for an answer, the question goes out
+            self.flush()
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            self._messages(self._fill(0.0))
+            if pending:
+                return pending.popleft(), False
+            left = None if deadline is None else deadline - time.monotonic()
+            if left is not None and left <= 0.0:
+                return None, False
+            self._wait(left)
 
     def send_raw(self, can_id: int, data: bytes) -> None:
         """Send a classic 11-bit data frame without building a :class:`can.Message` (the
         emulator's fast path; same wire frame as :meth:`send`)."""
         frame = _HEADER.pack(can_id, 0, len(data), len(data), time.time()) + data
-        for fd, peer in list(self._peers.items()):
-            try:
-                peer.send(frame)
-            except BlockingIOError:
-                self._dropped()
-            except OSError:
-                self._forget(fd)
+        if self.hold_pdos and PDO_FIRST <= can_id <= PDO_LAST:
+            self._hold(frame)
+        else:
+            self._send_record(frame)
 
     def recv_raw(self) -> list[tuple[float, int, bytes]]:
         """Every waiting classic 11-bit data frame as ``(timestamp [s], identifier, data)``
         (the sender's ``time.time()``), without waiting and without :class:`can.Message`
         (the emulator's fast path). Other frames (extended, remote, error, FD) are dropped
-        here; filters do not apply."""
-        self._fill(0.0)
+        here, and frames already taken by ``recv``; filters do not apply."""
+        if self._held:
+            self.flush()
         out = []
-        pending = self._pending
-        header = _HEADER
-        while pending:
-            frame = pending.popleft()
-            if len(frame) < header.size:
-                continue
-            can_id, flags, _, size, stamp = header.unpack_from(frame)
-            if not flags and len(frame) == header.size + size:
-                out.append((stamp, can_id, frame[header.size :]))
+        while records := self._fill(0.0):
+            for record in records:
+                try:
+                    fields = frames(record)
+                except ValueError as exc:
+                    log.warning("%s: %s (dropped)", self.channel_info, exc)
+                    continue
+                out += [
+                    (stamp, can_id, data) for can_id, flags, _, stamp, data in fields if not flags
+                ]
         return out
 
     def shutdown(self) -> None:
+        if self._held:
+            self.flush()
         super().shutdown()
         self._close_sockets()
         try:
@@ -233,35 +285,97 @@ class UnixBus(can.BusABC):
 
     # ---------------------------------------------------------------------------- internals
 
-    def _fill(self, timeout: float) -> None:
-        """Wait up to ``timeout`` [s] (< 0: for ever) for a peer; then move every frame
-        waiting on every ready peer to :attr:`_pending`, and accept new peers."""
+    def _hold(self, frame: bytes) -> None:
+        """Keep ``frame`` for the next record (sending the held ones first if it is full)."""
+        if self._held_size + len(frame) > MAX_RECORD:
+            self.flush()
+        self._held.append(frame)
+        self._held_size += len(frame)
+
+    def _send_record(self, frame: bytes) -> None:
+        """The frames held, then ``frame`` (may be empty), as one record to every peer."""
+        if self._held:
+            if self._held_size + len(frame) > MAX_RECORD:
+                held = b"".join(self._held)
+                self._held.clear()
+                self._held_size = 0
+                self._send_record(held)
+            else:
+                self._held.append(frame)
+                frame = b"".join(self._held)
+                self._held.clear()
+                self._held_size = 0
+        for fd, peer in list(self._peers.items()):
+            try:
+                peer.send(frame)
+            except BlockingIOError:
+                self._dropped()
+            except OSError:  # the peer went away
+                self._forget(fd)
+
+    def _wait(self, timeout: float | None) -> None:
+        """Wait up to ``timeout`` [s] (None: for ever) until a peer sends or joins (``select``
+        on the epoll descriptor: microseconds, where ``epoll_wait`` rounds up to 1 ms)."""
+        try:
+            select.select([self._epoll], [], [], timeout)
+        except InterruptedError:
+            pass
+        except (OSError, ValueError) as exc:
+            raise can.CanOperationError(f"{self.channel_info}: {exc}") from exc
+
+    def _fill(self, timeout: float) -> list[bytes]:
+        """Wait up to ``timeout`` [s] (< 0: for ever; epoll's 1 ms resolution) for a peer;
+        then one record of every ready peer (oldest first per peer), and accept new peers.
+        Level-triggered: a peer with more records is ready again at the next call."""
         try:
             events = self._epoll.poll(timeout)
         except InterruptedError:
-            return
+            return []
         except (OSError, ValueError) as exc:
             raise can.CanOperationError(f"{self.channel_info}: {exc}") from exc
+        if not events:
+            return []
         listener = self._listener.fileno()
-        pending = self._pending
         ready = [fd for fd, _ in events if fd != listener]
         if len(ready) < len(events):
             ready += self._accept()  # a new peer may have sent already
+        records = []
         for fd in ready:
             peer = self._peers.get(fd)
             if peer is None:
                 continue
-            while True:
-                try:
-                    frame = peer.recv(_MAX_FRAME)
-                except BlockingIOError:
+            try:
+                record = peer.recv(MAX_RECORD)
+            except BlockingIOError:
+                continue
+            except OSError:
+                record = b""
+            if record:
+                records.append(record)
+            else:  # the peer closed its end
+                self._forget(fd)
+        return records
+
+    def _messages(self, records: list[bytes]) -> None:
+        """Decode ``records`` into :attr:`_pending` (malformed ones logged and dropped)."""
+        pending, channel, header = self._pending, self._channel, _HEADER.size
+        unpack, make = _HEADER.unpack_from, can.Message
+        for record in records:
+            size, start = len(record), 0
+            while start + header <= size:  # classic 11-bit data frames: the usual ones
+                can_id, flags, dlc, length, stamp = unpack(record, start)
+                end = start + header + length
+                if flags or end > size:
                     break
-                except OSError:
-                    frame = b""
-                if not frame:  # the peer closed its end
-                    self._forget(fd)
-                    break
-                pending.append(frame)
+                pending.append(make(stamp, can_id, False, False, False, channel, dlc,
+                                    record[start + header : end]))  # fmt: skip
+                start = end
+            if start == size:
+                continue
+            try:  # the rest of the record: other kinds of frames, or malformed
+                pending.extend(message(*fields, channel) for fields in frames(record[start:]))
+            except ValueError as exc:
+                log.warning("%s: %s (dropped)", self.channel_info, exc)
 
     def _dropped(self) -> None:
         self.dropped += 1

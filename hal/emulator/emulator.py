@@ -58,6 +58,7 @@ import numpy as np
 
 from controller.model.robot import Robot, load_robot
 from hal.can.drive_profile import DriveProfile, drives_path, eds_path, load_drive_profile
+from hal.can.unix_bus import INTERFACE as UNIX
 from hal.emulator.drive import EmulatedDrive
 from hal.emulator.faults import ActiveFault, FaultableBus, FaultInjector
 from hal.emulator.plant import Plant
@@ -196,8 +197,10 @@ class DriveEmulator:
                 if name in given:
                     port.attach(given[name])
                     continue
+                # unix buses hold the TPDOs of a SYNC until it is answered: one record
+                extra: dict[str, Any] = {"hold_pdos": True} if port.interface == UNIX else {}
                 try:
-                    port.attach(can.Bus(interface=port.interface, channel=port.channel))
+                    port.attach(can.Bus(interface=port.interface, channel=port.channel, **extra))
                 except Exception as exc:
                     self._close_buses()
                     raise OSError(
@@ -299,6 +302,7 @@ class DriveEmulator:
                 port = self._ports[name]
                 if not port.bus_off:
                     self._sync(port, list(range(len(port.drives))))
+                    port.flush()
 
     # ----------------------------------------------------------------------- injection
 
@@ -333,6 +337,7 @@ class DriveEmulator:
             if group is not None and not port.bus_off:
                 start = time.perf_counter()
                 self._sync(port, group)
+                port.flush()  # this bus's TPDOs now, in one record (a hold_pdos bus)
                 if self.record_sync_times:
                     self.sync_times.append(time.perf_counter() - start)
             port.syncs += 1  # handled, even when ignored (bus-off, no drive on this COB-ID)

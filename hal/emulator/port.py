@@ -33,6 +33,8 @@ class Port:
         self.indices: list[int] = []
         self.bus: can.BusABC | None = None
         self.send_raw: Callable[[int, bytes], None] | None = None
+        #: Sends the frames the bus holds (``unix`` with ``hold_pdos``), else None.
+        self._flush: Callable[[], None] | None = None
         self.recv_raw: Callable[[], list[tuple[float, int, bytes]]] | None = None
         self.bus_off = False
         self.routes: dict[int, list[Handler]] = {}
@@ -47,10 +49,22 @@ class Port:
 
     def attach(self, bus: can.BusABC | None) -> None:
         """Use ``bus`` (None: none). A bus with ``send_raw``/``recv_raw`` (the ``unix``
-        interface) is used through those: no :class:`can.Message` per frame."""
+        interface) is used through those: no :class:`can.Message` per frame; one with
+        ``flush`` is flushed after each SYNC answered (:meth:`flush`)."""
         self.bus = bus
         self.send_raw = getattr(bus, "send_raw", None)
         self.recv_raw = getattr(bus, "recv_raw", None)
+        self._flush = getattr(bus, "flush", None)
+
+    def flush(self) -> None:
+        """Send what the bus holds (the TPDOs of a SYNC on a ``hold_pdos`` bus: one record)."""
+        if self._flush is None:
+            return
+        try:
+            self._flush()
+        except (can.CanError, OSError) as exc:
+            self.send_errors += 1
+            log.warning("bus %s: flush failed: %s", self.name, exc)
 
     def send(self, can_id: int, data: bytes) -> None:
         bus = self.bus
