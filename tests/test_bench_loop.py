@@ -10,7 +10,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_bench_loop_prints_the_breakdown_of_the_cycle():
+def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs():
     out = subprocess.run(
         [
             sys.executable,
@@ -19,6 +19,8 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle():
             "0.5",
             "--rate",
             "200",
+            "--runs",
+            "2",
             "--no-realtime",
         ],
         capture_output=True,
@@ -27,18 +29,34 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle():
         check=True,
     ).stdout
     result = json.loads(out.strip().splitlines()[-1])
-    assert result["cycles"] == 100
-    pieces = result["pieces_us"]
-    assert set(pieces) == {
-        "read",
-        "kinematics",
-        "motion",
-        "qp_build",
-        "qp_solve",
-        "write",
-        "publish",
-        "other",
+    assert result["runs"] == 2 and len(result["per_run"]) == 2
+    assert set(result["median"]) == {
+        "compute_us_p50",
+        "compute_us_p99",
+        "late_by_more_than_half_period",
+        "overruns",
     }
-    assert all(p["p50"] >= 0 and p["p99"] >= p["p50"] for k, p in pieces.items() if k != "other")
-    assert pieces["qp_build"]["p50"] > 0 and pieces["publish"]["p50"] > 0
-    assert "per cycle [us]" in out
+    for run in result["per_run"]:
+        assert run["cycles"] == 100
+        assert len(run["load"]) == 3
+        assert "late_by_more_than_half_period" in run and "overruns" in run
+        pieces = run["pieces_us"]
+        assert set(pieces) == {
+            "read",
+            "kinematics",
+            "motion",
+            "collision",
+            "qp_build",
+            "qp_solve",
+            "write",
+            "publish",
+            "other",
+        }
+        assert all(
+            p["p50"] >= 0 and p["p99"] >= p["p50"] for k, p in pieces.items() if k != "other"
+        )
+        assert pieces["qp_build"]["p50"] > 0 and pieces["publish"]["p50"] > 0
+        assert pieces["collision"]["p50"] > 0
+        assert 0.0 <= run["collision"]["rows_active_pct"] <= 100.0
+    assert "per cycle [us]" in out and "median of 2 runs" in out
+    assert "collision rows active in" in out
