@@ -10,12 +10,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
-from loop_mix import ARMS_CLOSE, arm_pairs, segments  # noqa: E402
+from loop_mix import ARMS_CLOSE, arm_pairs, segments
 
-from controller.control.core import MotionCore  # noqa: E402
-from controller.model.robot import load_robot  # noqa: E402
-from controller.vocabulary import CoreState  # noqa: E402
-from hal.mujoco_backend import MujocoBackend  # noqa: E402
+from controller.control.core import MotionCore
+from controller.model.robot import load_robot
+from controller.vocabulary import CoreState
+from hal.mujoco_backend import MujocoBackend
 
 
 def test_arms_close_puts_collision_rows_between_the_two_arms_and_comes_back():
