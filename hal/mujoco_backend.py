@@ -191,10 +191,11 @@ class MujocoBackend(HardwareInterface):
         self._ones = np.ones(2 * n)
         self._scratch = np.zeros((2, n))
         self._fractions = tuple((j + 0.5) / substeps for j in range(substeps))
-        #: Views of ``data.ctrl`` (rows: the exposed joints' ``_pos`` and ``_ff`` actuators)
-        #: and of the divergence warning counters, set by :meth:`configure`.
+        #: Views of ``data.ctrl`` (rows: the exposed joints' ``_pos`` and ``_ff`` actuators),
+        #: of the divergence warning counters and of qpos/qvel, set by :meth:`configure`.
         self._ctrl_pair = np.zeros((2, n))
         self._warnings = np.zeros(len(_DIVERGENCE_WARNINGS), dtype=np.int32)
+        self._qpos = self._qvel = np.zeros(0)
         self._servo_mask = np.zeros(n, dtype=bool)  # which exposed joints have the servo on
         self._divergences = 0
 
@@ -283,6 +284,7 @@ class MujocoBackend(HardwareInterface):
         # Live views into the MjData (mj_resetData keeps its buffers): ctrl is [_pos of
         # every actuated joint, _ff of every actuated joint], the exposed joints first in each.
         self._ctrl_pair = data.ctrl.reshape(2, total)[:, : len(self.joint_names)]
+        self._qpos, self._qvel = data.qpos, data.qvel
         self._warnings = data.warning.number[_DIVERGENCE_SLICE]
         self._servo(on=False)
         self._divergences = self._divergence_count()
@@ -354,8 +356,8 @@ class MujocoBackend(HardwareInterface):
         if data is None:
             raise RuntimeError(f"read() needs a configured backend, it is {self._state.value}")
         return JointState(
-            position=data.qpos[self._qadr],
-            velocity=data.qvel[self._dofadr],
+            position=self._qpos[self._qadr],  # views kept since configure: gathers only
+            velocity=self._qvel[self._dofadr],
             stamp=float(data.time),
         )
 
