@@ -60,3 +60,25 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         assert 0.0 <= run["collision"]["rows_active_pct"] <= 100.0
     assert "per cycle [us]" in out and "median of 2 runs" in out
     assert "collision rows active in" in out
+
+
+def test_bench_loop_without_the_breakdown_still_reports_the_cycle():
+    out = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "tools" / "bench_loop.py"),
+            "--seconds",
+            "0.5",
+            "--rate",
+            "200",
+            "--no-realtime",
+            "--no-breakdown",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    ).stdout
+    (run,) = json.loads(out.strip().splitlines()[-1])["per_run"]
+    assert run["cycles"] == 100 and run["pieces_us"] == {}
+    assert "per cycle [us]" not in out and "collision rows active in" in out

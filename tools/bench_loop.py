@@ -2,7 +2,7 @@
 """Closed-loop benchmark: the motion core on MuJoCo at a fixed rate, running a scripted mix.
 
 Usage: python tools/bench_loop.py [--robot smartpal5] [--rate 1000] [--seconds 60]
-                                  [--runs 1] [--no-realtime]
+                                  [--runs 1] [--no-realtime] [--no-breakdown]
 
 The mix repeats: hand line out and back, elbow swing with the hand held, joint PTP out and
 back, waist bend with the hands held, vehicle out and back, both hands towards each other
@@ -22,7 +22,8 @@ time of the cycles with rows active. With ``--runs N`` the run repeats N times a
 of their compute p50/p99 and late counts follow. The last line is a JSON object.
 
 The breakdown wraps the pieces with timers from outside (nothing in the core knows): about
-1 µs of overhead per piece, included in the compute time.
+1 µs of overhead per piece, included in the compute time; ``--no-breakdown`` leaves them out
+(the compute time as the daemon has it, no per-piece figures).
 """
 
 from __future__ import annotations
@@ -72,10 +73,16 @@ class Breakdown:
     """Per-cycle time of each piece of the control cycle [ns], by wrapping the pieces, and
     the cycle's collision rows."""
 
-    def __init__(self, core: MotionCore, capacity: int):
+    def __init__(self, core: MotionCore, capacity: int, wrap: bool = True):
+        """``wrap=False``: no timers (the pieces stay 0), only the compute time and rows."""
         self.now = dict.fromkeys(PIECES, 0)
         self.rows = np.zeros((capacity, SEGMENT + 1))
         self.n = 0
+        self.wrap = wrap
+        if wrap:
+            self._wrap(core)
+
+    def _wrap(self, core: MotionCore) -> None:
         hw, kin, ik = core.hw, core.kin, core.ik
         _patch(hw, "read", self._timed("read", hw.read))
         _patch(hw, "write", self._timed("write", hw.write))
@@ -144,6 +151,8 @@ class Breakdown:
 
     def summary(self) -> dict[str, dict[str, float]]:
         rows = self.rows[: self.n] / 1e3
+        if not self.wrap:
+            return {}
         return {name: _percentiles(rows[:, i]) for i, name in enumerate((*PIECES, "other"))}
 
     def collision_summary(self, close: int) -> dict[str, Any]:
@@ -210,8 +219,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             time.sleep(0.001)
 
     capacity = int(args.rate * args.seconds) + 10
-    breakdown = Breakdown(core, capacity)
-    publish = breakdown._timed("publish", lambda: publisher.publish(len(ready), False, 0, 0))
+    breakdown = Breakdown(core, capacity, wrap=not args.no_breakdown)
+
+    def publish() -> None:
+        publisher.publish(len(ready), False, 0, 0)
+
+    if not args.no_breakdown:
+        publish = breakdown._timed("publish", publish)
     segment = {"now": -1}
 
     def step(cycle: int, t: float) -> bool:
@@ -270,11 +284,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         f"cycles {stats['cycles']}, overruns {stats['overruns']}, "
         f"late by > half a period {stats['late_by_more_than_half_period']}"
     )
-    print(
-        "per cycle [us]  "
-        + "  ".join(f"{k} {v['p50']:.1f}/{v['p99']:.1f}" for k, v in pieces.items())
-    )
-    print("                (median/p99 of each piece; 'other': the rest of the compute time)")
+    if pieces:
+        print(
+            "per cycle [us]  "
+            + "  ".join(f"{k} {v['p50']:.1f}/{v['p99']:.1f}" for k, v in pieces.items())
+        )
+        print("                (median/p99 of each piece; 'other': the rest of the compute time)")
     active, between = rows["compute_us_rows_active"], rows["compute_us_arm_rows"]
     print(
         f"collision rows active in {rows['rows_active_pct']:.1f} % of cycles (up to "
@@ -303,6 +318,11 @@ def main() -> int:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--runs", type=int, default=1, help="repeat the run, print medians")
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
+    parser.add_argument(
+        "--no-breakdown",
+        action="store_true",
+        help="no timers around the pieces (their overhead, ~1 us each, leaves the compute time)",
+    )
     parser.add_argument(
         "--switch-interval",
         type=float,
