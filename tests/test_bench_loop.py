@@ -58,8 +58,10 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         assert pieces["qp_build"]["p50"] > 0 and pieces["publish"]["p50"] > 0
         assert pieces["collision"]["p50"] > 0
         assert 0.0 <= run["collision"]["rows_active_pct"] <= 100.0
+        assert {"idle", "hand line", "arms close"} <= set(run["segments"])
+        assert sum(seg["cycles"] for seg in run["segments"].values()) == 100
     assert "per cycle [us]" in out and "median of 2 runs" in out
-    assert "collision rows active in" in out
+    assert "collision rows active in" in out and "by segment" in out
 
 
 def test_bench_loop_without_the_breakdown_still_reports_the_cycle():

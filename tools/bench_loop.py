@@ -155,6 +155,15 @@ class Breakdown:
             return {}
         return {name: _percentiles(rows[:, i]) for i, name in enumerate((*PIECES, "other"))}
 
+    def segment_summary(self, names: list[str]) -> dict[str, dict[str, float]]:
+        """Compute time [µs] p50/p99 and cycles per segment of the mix ("idle": no motion)."""
+        rows = self.rows[: self.n]
+        out = {}
+        for k, name in [(-1, "idle"), *((names.index(n), n) for n in dict.fromkeys(names))]:
+            mine = rows[rows[:, SEGMENT] == k, COMPUTE] / 1e3
+            out[name] = {**_percentiles(mine), "cycles": len(mine)}
+        return out
+
     def collision_summary(self, close: int) -> dict[str, Any]:
         """Shares [%] of cycles with collision rows, in the run and in segment ``close``."""
         rows = self.rows[: self.n]
@@ -265,6 +274,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     runtime.cleanup()
     pieces = breakdown.summary()
     rows = breakdown.collision_summary(close)
+    by_segment = breakdown.segment_summary(names)
     rows["arms_closest_mm"] = round(closest["arms"] * 1e3, 1) if closest["arms"] < 1e9 else None
     stats = loop.stats.summary()
     report = loop.realtime_report
@@ -299,6 +309,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         f"{rows['arms_close_arm_rows_pct']:.1f} % (compute p50/p99 "
         f"{between['p50']:.1f}/{between['p99']:.1f} us), closest {rows['arms_closest_mm']} mm"
     )
+    print(
+        "compute p50/p99 [us] by segment: "
+        + ", ".join(
+            f"{name} {v['p50']:.0f}/{v['p99']:.0f} ({v['cycles']:g})"
+            for name, v in by_segment.items()
+        )
+    )
     if core.alarms:
         print(f"alarms: {core.alarms}")
     return {
@@ -308,6 +325,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         **stats,
         "pieces_us": pieces,
         "collision": rows,
+        "segments": by_segment,
     }
 
 
