@@ -173,8 +173,6 @@ class MujocoBackend(HardwareInterface):
         self._model: mujoco.MjModel | None = None
         self._data: mujoco.MjData | None = None
         n, total = len(names), len(self._actuated)
-        self._pos = slice(0, n)  # ctrl of the exposed joints' position servos
-        self._ff = slice(total, total + n)  # ctrl of their velocity feed-forward
         # qpos/qvel addresses of every actuated joint, and views of the exposed ones.
         self._qadr_all = np.zeros(total, dtype=np.intp)
         self._dofadr_all = np.zeros(total, dtype=np.intp)
@@ -182,13 +180,22 @@ class MujocoBackend(HardwareInterface):
         self._dofadr = self._dofadr_all[:n]
         self._kp = np.zeros(total)
         self._kv = np.zeros(total)
-        # Set-points of the previous and current cycle, and scratch for the interpolation.
-        self._q_prev = np.zeros(n)
-        self._v_prev = np.zeros(n)
-        self._dq = np.zeros(n)
-        self._dv = np.zeros(n)
-        self._scratch = np.zeros(n)
+        # Set-points of the previous cycle (rows: position, velocity), their change this cycle
+        # and scratch for the interpolation: one array per pair, so that each substep's
+        # interpolation is two NumPy calls (:meth:`write` runs every cycle).
+        self._prev = np.zeros((2, n))
+        self._q_prev, self._v_prev = self._prev
+        self._delta = np.zeros((2, n))
+        self._dq, self._dv = self._delta
+        self._delta_flat = self._delta.reshape(-1)
+        self._ones = np.ones(2 * n)
+        self._scratch = np.zeros((2, n))
         self._fractions = tuple((j + 0.5) / substeps for j in range(substeps))
+        #: Views of ``data.ctrl`` (rows: the exposed joints' ``_pos`` and ``_ff`` actuators),
+        #: of the divergence warning counters and of qpos/qvel, set by :meth:`configure`.
+        self._ctrl_pair = np.zeros((2, n))
+        self._warnings = np.zeros(len(_DIVERGENCE_WARNINGS), dtype=np.int32)
+        self._qpos = self._qvel = np.zeros(0)
         self._servo_mask = np.zeros(n, dtype=bool)  # which exposed joints have the servo on
         self._divergences = 0
 
@@ -274,6 +281,11 @@ class MujocoBackend(HardwareInterface):
             self._qadr_all[i] = joint.qposadr[0]
             self._dofadr_all[i] = joint.dofadr[0]
         self._model, self._data = model, data
+        # Live views into the MjData (mj_resetData keeps its buffers): ctrl is [_pos of
+        # every actuated joint, _ff of every actuated joint], the exposed joints first in each.
+        self._ctrl_pair = data.ctrl.reshape(2, total)[:, : len(self.joint_names)]
+        self._qpos, self._qvel = data.qpos, data.qvel
+        self._warnings = data.warning.number[_DIVERGENCE_SLICE]
         self._servo(on=False)
         self._divergences = self._divergence_count()
         self._state = HardwareState.INACTIVE
@@ -344,8 +356,8 @@ class MujocoBackend(HardwareInterface):
         if data is None:
             raise RuntimeError(f"read() needs a configured backend, it is {self._state.value}")
         return JointState(
-            position=data.qpos[self._qadr],
-            velocity=data.qvel[self._dofadr],
+            position=self._qpos[self._qadr],  # views kept since configure: gathers only
+            velocity=self._qvel[self._dofadr],
             stamp=float(data.time),
         )
 
@@ -362,24 +374,27 @@ class MujocoBackend(HardwareInterface):
         if velocity.shape not in ((n,), (0,)):
             raise ValueError(f"command.velocity has shape {velocity.shape}, expected ({n},)")
         end_time = data.time + self._dt
-        if self._state is HardwareState.ACTIVE and self._accept(position, velocity):
+        if self._state is HardwareState.ACTIVE:
             np.subtract(position, self._q_prev, out=self._dq)
             if velocity.size:
                 np.subtract(velocity, self._v_prev, out=self._dv)
             else:
                 np.negative(self._v_prev, out=self._dv)
-            ctrl = data.ctrl
-            for fraction in self._fractions:
-                np.multiply(self._dq, fraction, out=self._scratch)
-                np.add(self._q_prev, self._scratch, out=ctrl[self._pos])
-                np.multiply(self._dv, fraction, out=self._scratch)
-                np.add(self._v_prev, self._scratch, out=ctrl[self._ff])
-                mujoco.mj_step(model, data)
-            self._q_prev[:] = position
-            if velocity.size:
-                self._v_prev[:] = velocity
+            # Finite set-points give a finite sum of changes (an overflow takes the long way).
+            finite = math.isfinite(self._delta_flat.dot(self._ones))
+            if finite or self._accept(position, velocity):
+                prev, delta, scratch, ctrl = self._prev, self._delta, self._scratch, self._ctrl_pair
+                for fraction in self._fractions:
+                    np.multiply(delta, fraction, out=scratch)
+                    np.add(prev, scratch, out=ctrl)
+                    mujoco.mj_step(model, data)
+                self._q_prev[:] = position
+                if velocity.size:
+                    self._v_prev[:] = velocity
+                else:
+                    self._v_prev.fill(0.0)
             else:
-                self._v_prev.fill(0.0)
+                mujoco.mj_step(model, data, self._substeps)
         else:
             mujoco.mj_step(model, data, self._substeps)
         if self._divergence_count() != self._divergences:
@@ -429,9 +444,9 @@ class MujocoBackend(HardwareInterface):
         self._servo_mask.fill(on)
 
     def _divergence_count(self) -> int:
-        # ``warning.number`` is a live view of the counters (one array read, not three
-        # MjWarningStat wrappers: this runs every cycle).
-        return int(self.data.warning.number[_DIVERGENCE_SLICE].sum())
+        # A live view of ``warning.number`` kept since configure (not three MjWarningStat
+        # wrappers, nor a new array per call: this runs every cycle).
+        return int(sum(self._warnings.tolist()))
 
     def _recover_divergence(self, now: float) -> None:
         """Put a diverged simulation back at the initial configuration at time ``now``; FAULT.

@@ -10,7 +10,61 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_bench_loop_prints_the_breakdown_of_the_cycle():
+def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs():
+    out = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "tools" / "bench_loop.py"),
+            "--seconds",
+            "0.5",
+            "--rate",
+            "200",
+            "--runs",
+            "2",
+            "--no-realtime",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    ).stdout
+    result = json.loads(out.strip().splitlines()[-1])
+    assert result["runs"] == 2 and len(result["per_run"]) == 2
+    assert set(result["median"]) == {
+        "compute_us_p50",
+        "compute_us_p99",
+        "late_by_more_than_half_period",
+        "overruns",
+    }
+    for run in result["per_run"]:
+        assert run["cycles"] == 100
+        assert len(run["load"]) == 3
+        assert "late_by_more_than_half_period" in run and "overruns" in run
+        pieces = run["pieces_us"]
+        assert set(pieces) == {
+            "read",
+            "kinematics",
+            "motion",
+            "collision",
+            "qp_build",
+            "qp_solve",
+            "write",
+            "publish",
+            "other",
+        }
+        assert all(
+            p["p50"] >= 0 and p["p99"] >= p["p50"] for k, p in pieces.items() if k != "other"
+        )
+        assert pieces["qp_build"]["p50"] > 0 and pieces["publish"]["p50"] > 0
+        assert pieces["collision"]["p50"] > 0
+        assert 0.0 <= run["collision"]["rows_active_pct"] <= 100.0
+        assert {"idle", "hand line", "arms close"} <= set(run["segments"])
+        assert sum(seg["cycles"] for seg in run["segments"].values()) == 100
+    assert "per cycle [us]" in out and "median of 2 runs" in out
+    assert "collision rows active in" in out and "by segment" in out
+
+
+def test_bench_loop_without_the_breakdown_still_reports_the_cycle():
     out = subprocess.run(
         [
             sys.executable,
@@ -20,25 +74,13 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle():
             "--rate",
             "200",
             "--no-realtime",
+            "--no-breakdown",
         ],
         capture_output=True,
         text=True,
         timeout=300,
         check=True,
     ).stdout
-    result = json.loads(out.strip().splitlines()[-1])
-    assert result["cycles"] == 100
-    pieces = result["pieces_us"]
-    assert set(pieces) == {
-        "read",
-        "kinematics",
-        "motion",
-        "qp_build",
-        "qp_solve",
-        "write",
-        "publish",
-        "other",
-    }
-    assert all(p["p50"] >= 0 and p["p99"] >= p["p50"] for k, p in pieces.items() if k != "other")
-    assert pieces["qp_build"]["p50"] > 0 and pieces["publish"]["p50"] > 0
-    assert "per cycle [us]" in out
+    (run,) = json.loads(out.strip().splitlines()[-1])["per_run"]
+    assert run["cycles"] == 100 and run["pieces_us"] == {}
+    assert "per cycle [us]" not in out and "collision rows active in" in out

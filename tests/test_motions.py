@@ -18,6 +18,7 @@ from controller.motion.motions import (
     CPHoldMotion,
     JointMotion,
     VehicleMotion,
+    average_twist,
 )
 from controller.motion.paths import ArcPath, LinePath
 from controller.motion.reachability import ReachabilityChecker
@@ -409,3 +410,28 @@ def test_no_target_and_mask_ever_crosses_a_joint_limit(robot_id, dp, rot, mask, 
         if core.motion is None:
             break
     core.abort()
+
+
+def test_cartesian_targets_are_the_path_at_each_cycle_through_pause_and_stop():
+    """apply() reuses the pose it evaluated ahead last cycle: the targets and feed-forward
+    are still exactly the path's, cycle by cycle, with variable periods, pause and stop."""
+    core = make_core("smartpal5", "ideal")
+    start, end = hand_target(core, [0.1, -0.05, 0.12], [0, 0.2, 0.3])
+    path = LinePath(start, end)
+    motion = CartesianMotion(core.kin, DT, RIGHT, path, SPEED, ACCEL, {})
+    for k in range(3000):
+        if k == 200:
+            motion.pause()
+        if k == 400:
+            motion.resume()
+        if k == 600:
+            motion.stop()
+        s0 = motion.profile.s
+        motion.advance(DT * (1 + (k % 3)))
+        s1, dt = motion.profile.s, motion.profile.dt
+        now = path.at(s0)
+        assert np.array_equal(motion.task.target.homogeneous, now.homogeneous)
+        assert np.array_equal(motion.task.twist, average_twist(now, path.at(s1), dt))
+        if motion.finished:
+            break
+    assert motion.finished

@@ -284,6 +284,22 @@ def test_non_finite_set_point_faults_naming_the_joint(field: str, bad: float):
     assert hold(hw, 50) < HOLD_TOL
 
 
+@pytest.mark.filterwarnings("ignore:overflow encountered")
+def test_finite_set_points_whose_changes_overflow_a_sum_are_not_called_non_finite(
+    monkeypatch, tmp_path
+):
+    """write() checks the set-points through the sum of their changes; an overflow of that
+    sum (finite set-points) takes the element-wise check, which accepts them."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes MUJOCO_LOG.TXT where it runs
+    hw = backend()
+    hw.activate()
+    start = hw.read().position
+    velocity = np.zeros(len(start))
+    velocity[[0, 1]] = 1.5e308  # finite; their sum is not
+    hw.write(JointCommand(start.copy(), velocity))
+    assert all(f.source == "mujoco" for f in hw.faults())  # diverged, maybe; never a joint
+
+
 def test_wrong_command_shape_raises():
     hw = backend("pa10")
     hw.activate()

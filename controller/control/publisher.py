@@ -14,6 +14,7 @@ from pathlib import Path
 from controller.contract import snapshot as snap
 from controller.control.core import MotionCore
 from controller.control.loop import FixedRateLoop
+from controller.model.alarms import Alarm
 from controller.vocabulary import CoreState, RightLeft
 from hal.interface import HardwareInterface, HardwareState
 
@@ -40,6 +41,8 @@ class SnapshotPublisher:
         self._stats_every = max(1, round(STATS_PERIOD * rate_hz))
         #: The original frame or a control-point offset changed since the last publish.
         self.frames_changed = True
+        #: The alarms last published (None: none yet).
+        self._alarms: list[Alarm] | None = None
 
     def publish(self, queued: int, queue_full: bool, started: int, finished: int) -> None:
         """Write one snapshot: ``queued`` motions waiting, motion counters."""
@@ -71,17 +74,19 @@ class SnapshotPublisher:
             self._publish_frames()
         if core.cycles % self._stats_every == 0:
             self._publish_stats()
-        w.set_alarms(
-            [
-                {
-                    "code": a.code,
-                    "type": int(a.type),
-                    "description": a.description,
-                    "module": a.module,
-                }
-                for a in core.alarms
-            ]
-        )
+        if core.alarms != self._alarms:  # (the writer rewrites only what changed)
+            self._alarms = list(core.alarms)
+            w.set_alarms(
+                [
+                    {
+                        "code": a.code,
+                        "type": int(a.type),
+                        "description": a.description,
+                        "module": a.module,
+                    }
+                    for a in self._alarms
+                ]
+            )
         w.end()
 
     def _publish_frames(self) -> None:

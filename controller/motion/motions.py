@@ -281,6 +281,8 @@ class CartesianMotion(Motion):
         self.profile_limits = (v, a)
         self.profile = PathProfile(dt, v, a, duration)
         self.task = ControlPointTask(side, path.at(0.0))
+        #: The last (s, pose) :meth:`apply` evaluated ahead.
+        self._ahead: tuple[float, pin.SE3] | None = None
         self.allowed = dict(allowed)
         self.ranges = dict(ranges or {})
         other = other_side(side)
@@ -312,8 +314,13 @@ class CartesianMotion(Motion):
         return IKSetup(tasks, frozen, allowed, self.ranges)
 
     def apply(self, s0: float, s1: float, dt: float) -> None:
-        now = self.path.at(s0)
-        self.task.set_target(now, average_twist(now, self.path.at(s1), dt))
+        # The pose at s1 is the next cycle's pose at s0 (the time law goes on from there):
+        # one path evaluation per cycle, not two.
+        ahead = self._ahead
+        now = ahead[1] if ahead is not None and ahead[0] == s0 else self.path.at(s0)
+        nxt = self.path.at(s1)
+        self._ahead = (s1, nxt)
+        self.task.set_target(now, average_twist(now, nxt, dt))
         if self.elbow is not None and self.elbow_path is not None:
             e0, e1 = float(self.elbow_path.at(s0)[0]), float(self.elbow_path.at(s1)[0])
             self.elbow.set_target(e0, (e1 - e0) / dt)

@@ -68,6 +68,8 @@ class LinePath:
         self.dp = end.translation - start.translation
         self.omega = pin.log3(start.rotation.T @ end.rotation)  # in the start frame
         self.omega_world = start.rotation @ self.omega
+        # The start as arrays (reading them from the SE3 converts every time).
+        self._r0, self._p0 = start.rotation.copy(), start.translation.copy()
 
     @property
     def length(self) -> float:
@@ -81,8 +83,7 @@ class LinePath:
 
     def at(self, s: float) -> pin.SE3:
         s = _clamp(s)
-        rot = self.start.rotation @ pin.exp3(s * self.omega)
-        return pin.SE3(rot, self.start.translation + s * self.dp)
+        return pin.SE3(self._r0 @ pin.exp3(s * self.omega), self._p0 + s * self.dp)
 
     def twist(self, s: float, sd: float) -> np.ndarray:
         """Linear [m/s] and angular [rad/s] velocity (frame axes) for ṡ = ``sd``."""

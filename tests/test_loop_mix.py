@@ -1,0 +1,45 @@
+"""tools/loop_mix.py: the benchmark's motion mix brings the two arms within the collision
+rows' range of each other (issue 14)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+
+from loop_mix import ARMS_CLOSE, arm_pairs, segments
+
+from controller.control.core import MotionCore
+from controller.model.robot import load_robot
+from controller.vocabulary import CoreState
+from hal.mujoco_backend import MujocoBackend
+
+
+def test_arms_close_puts_collision_rows_between_the_two_arms_and_comes_back():
+    robot = load_robot("smartpal5")
+    dt = 1e-3
+    core = MotionCore(robot, MujocoBackend(robot, dt), dt)
+    core.servo_on()
+    mix = [(name, make) for name, make in segments(core) if name == ARMS_CLOSE]
+    assert len(mix) == 2  # in and back out
+    assert core.collision is not None
+    between = arm_pairs(core.kin, core.collision.distances.pair_links)
+    assert between.any()
+    start = {side: core.kin.pose(side).translation.copy() for side in core.kin.arms}
+    rows_between = 0
+    for _, make in mix:
+        core.planning_kinematics()
+        core.start(make(core))
+        for _ in range(20000):
+            core.cycle()
+            pairs = core.collision.pairs
+            rows_between += bool(len(pairs) and between[pairs].any())
+            if core.motion is None:
+                break
+        assert core.state == CoreState.READY and not core.alarms
+    assert rows_between > 0
+    for side, p in start.items():  # back where they started
+        assert np.linalg.norm(core.kin.pose(side).translation - p) < 1e-3
