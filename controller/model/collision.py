@@ -21,7 +21,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from controller.model import jit
+from controller.model import collision_kernel, jit
 from controller.model.collision_kernel import CompiledPairs, Unsupported
 from controller.model.collision_shapes import CollisionShape, align_z, collision_shapes
 from controller.model.model_source import ModelSource
@@ -229,7 +229,7 @@ class CollisionDistances:
             pin.computeDistances(self.geometry, self.geometry_data)
             self.distances[:] = [r.min_distance for r in self._results]
             return
-        compiled.update(q, self.distances, self.witnesses)
+        collision_kernel.update(q, *compiled.model_arrays, self.distances, self.witnesses)
         if len(compiled.other):  # box-box pairs: coal
             pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
             for k in compiled.other.tolist():

@@ -608,6 +608,12 @@ class CompiledPairs:
         self.shape_world = np.zeros((ng, 4, 3))
         #: Per capsule or sphere: segment end points and radius [m] (see :func:`_segments`).
         self.segments = np.zeros((ng, 7))
+        #: :func:`update`'s arguments after ``q`` (written in place, never replaced).
+        self.model_arrays = (
+            self.joint_int, self.joint_frame, self.joint_world, self.columns,
+            self.column_kind, self.shape_int, self.shape_frame, self.shape_world, self.size,
+            self.segments, self.pairs,
+        )  # fmt: skip
 
     @property
     def kinds(self) -> np.ndarray:
@@ -621,11 +627,7 @@ class CompiledPairs:
 
     def update(self, q: np.ndarray, d: np.ndarray, witness: np.ndarray) -> None:
         """:func:`update` at ``q`` [rad, m] into ``d`` and ``witness``."""
-        update(
-            q, self.joint_int, self.joint_frame, self.joint_world, self.columns,
-            self.column_kind, self.shape_int, self.shape_frame, self.shape_world, self.size,
-            self.segments, self.pairs, d, witness,
-        )  # fmt: skip
+        update(q, *self.model_arrays, d, witness)
 
     def rows(
         self, index: np.ndarray, support: np.ndarray, witness: np.ndarray, out: np.ndarray

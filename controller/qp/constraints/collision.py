@@ -41,7 +41,8 @@ fallback and the reference the kernel is tested against.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -68,6 +69,8 @@ BRAKE_MARGIN = 1e-6
 #: Rows whose pair can decelerate less than this [m/s²] (``Σ_j |J_d,j|·a_max,j``) are left
 #: free: the pair's distance does not depend on the (free) joints there.
 MIN_REACH = 1e-6
+#: The compiled rows (its first arguments come packed: :meth:`CollisionAvoidance._compiled`).
+_rows_kernel: Callable[..., tuple[int, int]] = collision_rows
 #: A row binds when ``J_d v`` is within this [m/s] of its bound.
 BINDING_TOL = 1e-5
 #: A row whose bound the cycle's joint box meets anyway (``min J_d v`` over the box at least
@@ -130,6 +133,10 @@ class CollisionAvoidance:
             dtype=float,
         )
         self._candidates = np.zeros(len(distances), dtype=np.int64)
+        #: The values :attr:`_settings` holds and the kernel's own arguments (see
+        #: :meth:`_compiled`).
+        self._settings_of: tuple[float, ...] = ()
+        self._own: tuple[Any, ...] = ()
         #: Acceleration limits of the joints, 0 for frozen ones [rad/s², m/s²] (contiguous).
         self._a_max = self._a_max_all.copy()
         if distances.kernel is not None:
@@ -171,6 +178,7 @@ class CollisionAvoidance:
         if len(self._low) < self.max_rows:  # raised since (tests and tools do)
             self._buffers = self._pair_buffers(self.max_rows)
             self._low, self._rows_lo = np.zeros(self.max_rows), np.zeros(self.max_rows)
+            self._settings_of = ()  # the kernel's arguments anew
         if self.distances.kernel is not None:
             return self._compiled(cycle, rows)
         dist = self.distances
@@ -266,15 +274,21 @@ class CollisionAvoidance:
         box = cycle.lb is not None and cycle.ub is not None
         lb = cycle.v_prev if cycle.lb is None else cycle.lb  # v_prev: unread
         ub = cycle.v_prev if cycle.ub is None else cycle.ub
-        settings = self._settings  # the values of now (tests and tools change them)
-        settings[:7] = (
-            self.influence, self.lookahead / self.dt, cap, self.security, self.span,
-            self.damping, self.dt,
-        )  # fmt: skip
-        k, m = collision_rows(
-            dist.distances, self._state, self._candidates, settings, near, self.pairs,
-            dist.support, dist.witnesses, kernel.columns, kernel.column_kind, cycle.v_prev,
-            lb, ub, box, self._a_max, rows.C, rows.lo, rows.hi, self._low, row_pairs,
+        # the settings of now (tests and tools change them), written when they change
+        values = (self.influence, self.lookahead, self.dt, cap, self.security, self.damping)
+        if values != self._settings_of:
+            self._settings_of = values
+            self._settings[:7] = (
+                self.influence, self.lookahead / self.dt, cap, self.security, self.span,
+                self.damping, self.dt,
+            )  # fmt: skip
+            self._own = (
+                dist.distances, self._state, self._candidates, self._settings, dist.support,
+                dist.witnesses, kernel.columns, kernel.column_kind, self._a_max, self._low,
+            )  # fmt: skip
+        k, m = _rows_kernel(
+            *self._own, near, row_pairs, self.pairs, cycle.v_prev, lb, ub, box, rows.C,
+            rows.lo, rows.hi,
         )  # fmt: skip
         self.pairs = near[:k]
         self.row_pairs = row_pairs[:m]

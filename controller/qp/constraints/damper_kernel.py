@@ -62,22 +62,22 @@ def collision_rows(
     state: np.ndarray,
     candidates: np.ndarray,
     settings: np.ndarray,
-    near: np.ndarray,
-    old_pairs: np.ndarray,
     support: np.ndarray,
     witness: np.ndarray,
     columns: np.ndarray,
     column_kind: np.ndarray,
+    a_max: np.ndarray,
+    low: np.ndarray,
+    near: np.ndarray,
+    row_pairs: np.ndarray,
+    old_pairs: np.ndarray,
     v_prev: np.ndarray,
     lb: np.ndarray,
     ub: np.ndarray,
     has_box: bool,
-    a_max: np.ndarray,
     C: np.ndarray,
     lo: np.ndarray,
     hi: np.ndarray,
-    low: np.ndarray,
-    row_pairs: np.ndarray,
 ) -> tuple[int, int]:
     """One cycle's rows: :func:`select_pairs` writes the ``k`` pairs in range into ``near``,
     then rows ``lo ≤ C v ≤ hi`` of those the box does not imply, their pairs in
@@ -87,7 +87,8 @@ def collision_rows(
     unless still in range). ``settings``: influence, look-ahead / dt, max rows, security,
     span, damping, dt, braking share, interior, brake margin, min reach, implied tolerance,
     the rows' infinity (:data:`~controller.qp.constraints.protocol.INF`). ``witness``,
-    ``columns``: :attr:`CollisionDistances.witnesses`, :attr:`CompiledPairs.columns`.
+    ``columns``: :attr:`CollisionDistances.witnesses`, :attr:`CompiledPairs.columns`. The
+    arguments up to ``low`` are the constraint's own (the same arrays every cycle).
     No bounds checks: ``near``, ``row_pairs``, ``low`` and the rows must hold max rows."""
     d_last, allowed = state[0], state[2]
     influence, horizon, max_rows = settings[0], settings[1], int(settings[2])
