@@ -77,26 +77,17 @@ def in_pool(handler: grpc.RpcMethodHandler, pool: ThreadPoolExecutor) -> grpc.Rp
     """``handler`` (unary-unary or unary-stream) running in ``pool`` instead of the server's
     thread pool."""
     if handler.unary_stream is not None:
-        stream = handler.unary_stream
+        behaviour, make = handler.unary_stream, grpc.unary_stream_rpc_method_handler
+    elif handler.unary_unary is not None:
+        behaviour, make = handler.unary_unary, grpc.unary_unary_rpc_method_handler
+    else:
+        raise ValueError("in_pool: only unary-unary and unary-stream methods")
 
-        def unary_stream(request: Any, context: grpc.ServicerContext) -> Any:
-            return stream(request, context)
+    def run(request: Any, context: grpc.ServicerContext) -> Any:
+        return behaviour(request, context)
 
-        unary_stream.experimental_thread_pool = pool  # type: ignore[attr-defined]
-        return grpc.unary_stream_rpc_method_handler(
-            unary_stream, handler.request_deserializer, handler.response_serializer
-        )
-    if handler.unary_unary is not None:
-        unary = handler.unary_unary
-
-        def unary_unary(request: Any, context: grpc.ServicerContext) -> Any:
-            return unary(request, context)
-
-        unary_unary.experimental_thread_pool = pool  # type: ignore[attr-defined]
-        return grpc.unary_unary_rpc_method_handler(
-            unary_unary, handler.request_deserializer, handler.response_serializer
-        )
-    raise ValueError("in_pool: only unary-unary and unary-stream methods")
+    run.experimental_thread_pool = pool  # type: ignore[attr-defined]
+    return make(run, handler.request_deserializer, handler.response_serializer)
 
 
 def streams_in_pool(pool: ThreadPoolExecutor) -> Wrap:

@@ -124,8 +124,8 @@ class CollisionAvoidance:
         #: The least ``J_d v / |J_d|`` the cycle's box allows, per row.
         self._low = np.zeros(self.max_rows)
         self._rows: RowBlock | None = None
-        #: The compiled path's pair buffers (two: this cycle's and the last one's) and
-        #: settings (see :func:`damper_rows`).
+        #: The compiled path's pair buffers (two: this cycle's and the last one's; see
+        #: :func:`~controller.qp.constraints.damper_kernel.collision_rows`).
         self._buffers = self._pair_buffers(self.max_rows)
         #: See :func:`collision_rows`; the first seven are written at each call.
         self._settings = np.array(
