@@ -382,3 +382,33 @@ def test_a_request_whose_caller_gave_up_is_never_executed():
 
     Controller._execute(Stub(), request)  # type: ignore[arg-type]
     assert calls == [] and not request.ok
+
+
+@pytest.mark.parametrize("in_slack", [True, False])
+def test_run_collects_garbage_only_in_the_slack_and_gives_the_collector_back(
+    tmp_path: Path, in_slack: bool
+):
+    import gc
+
+    r = robot("pa10")
+    hw = IdealBackend(r, 1.0 / RATE)
+    hw.configure()
+    c = Controller(r, hw, RATE, tmp_path / "snapshot", collect_in_slack=in_slack)
+    seen: list[bool] = []
+    step_once = c._step
+
+    def observed(cycle: int, t: float) -> bool:
+        seen.append(gc.isenabled())
+        return step_once(cycle, t) and cycle < 3
+
+    c.loop.step = observed
+    was = gc.isenabled()
+    gc.enable()
+    try:
+        c.run()
+        assert seen == [not in_slack] * 4
+        assert gc.isenabled()  # as run() found it
+        assert (c.loop.slack is c.collector) and (c.collector is not None) == in_slack
+    finally:
+        (gc.enable if was else gc.disable)()
+        c.close()

@@ -170,6 +170,34 @@ def test_overruns_are_counted_once_per_slow_cycle_and_skip_to_the_next_deadline(
     np.testing.assert_allclose(times, np.array(expected_ms) / 1e3)
 
 
+def test_slack_gets_the_time_left_before_the_next_deadline_outside_the_compute_time():
+    clock = FakeClock()
+    work = {0: 300_000, 1: 1_500_000, 2: 100_000}  # cycle 1 overruns: next due at 3 ms
+    slack: list[int] = []
+
+    def step(cycle: int, t: float) -> None:
+        clock.work(work[cycle])
+
+    def use_slack(ns: int) -> None:
+        slack.append(ns)
+        clock.work(ns // 2)  # half the slack: never part of a cycle's compute time
+
+    loop = fake_loop(clock, 1000, step, slack=use_slack)
+    assert loop.run(max_cycles=3) == 3
+    # Cycle 0 ends at 0.3 ms (next due 1 ms); cycle 1 wakes at 1 ms, ends at 2.5 ms (next
+    # due 3 ms); cycle 2 wakes at 3 ms, ends at 3.1 ms (next due 4 ms).
+    assert slack == [700_000, 500_000, 900_000]
+    np.testing.assert_allclose(np.sort(loop.stats.compute_us()), [100.0, 300.0, 1500.0])
+
+
+def test_unpaced_slack_is_the_rest_of_the_period():
+    clock = FakeClock()
+    slack: list[int] = []
+    loop = fake_loop(clock, 1000, lambda c, t: clock.work(400_000), paced=False, slack=slack.append)
+    assert loop.run(max_cycles=2) == 2
+    assert slack == [600_000, 600_000]
+
+
 def test_late_wakes_are_counted():
     # Sleep calls 1 and 3 wake 0.6 and 0.2 periods late: only the first is "late".
     clock = FakeClock(oversleep={1: 600_000, 3: 200_000})

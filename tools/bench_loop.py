@@ -3,14 +3,18 @@
 
 Usage: python tools/bench_loop.py [--robot smartpal5] [--rate 1000] [--seconds 60]
                                   [--runs 1] [--no-realtime] [--no-breakdown]
+                                  [--planner process|thread] [--gc slack|automatic]
 
 The mix repeats: hand line out and back, elbow swing with the hand held, joint PTP out and
 back, waist bend with the hands held, vehicle out and back, both hands towards each other
 and back ("arms close": each hand to a quarter of its distance from the point between them,
 close enough for the collision rows between the two arms), each where the robot has it.
-Motions are built and reachability-checked in a planner thread on the core's planning copy
-of the kinematics, as the daemon's service thread does; the loop only starts them. Each cycle
-also publishes the snapshot, as the control process does.
+Motions are built in a planner thread on the core's planning copy of the kinematics; the hand
+line's reachability check (the only planning that costs milliseconds) runs in a worker
+process, as the daemon's gateway plans in its own process (``--planner thread``: in the
+planner thread, sharing the loop's GIL). The loop only starts the motions. Each cycle also
+publishes the snapshot, as the control process does. The garbage collector runs in the
+loop's slack as in the daemon (``--gc automatic``: CPython's own collection).
 
 Prints per run: the machine load at its start (``os.getloadavg``), cycle compute time and wake
 latency (p50/p99/max), overruns (a cycle ending after the next deadline) and cycles woken
@@ -46,8 +50,9 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
 import numpy as np  # noqa: E402
-from loop_mix import ARMS_CLOSE, arm_pairs, script, segments  # noqa: E402
+from loop_mix import ARMS_CLOSE, WorkerLineCheck, arm_pairs, script, segments  # noqa: E402
 
+from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
 from controller.control.publisher import SnapshotPublisher  # noqa: E402
@@ -201,7 +206,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     dt = 1.0 / args.rate
     core = MotionCore(robot, MujocoBackend(robot, dt), dt)
     core.servo_on()
-    mix = segments(core)
+    line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
+    mix = segments(core, line_check)
     names = [name for name, _ in mix]
     close = names.index(ARMS_CLOSE) if ARMS_CLOSE in names else -2
     done = {"motions": 0, "skipped": 0, "next": 0}
@@ -262,16 +268,31 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     thread = threading.Thread(target=planner, daemon=True)
     thread.start()
 
-    loop = FixedRateLoop(args.rate, step, realtime=not args.no_realtime, stats_capacity=capacity)
+    collector = SlackCollector() if args.gc == "slack" else None
+    loop = FixedRateLoop(
+        args.rate,
+        step,
+        realtime=not args.no_realtime,
+        stats_capacity=capacity,
+        slack=collector,
+    )
     runtime = tempfile.TemporaryDirectory(prefix="bench-loop-")
     publisher = SnapshotPublisher(
         Path(runtime.name) / "snapshot", core, core.hw, loop, args.rate, queue_depth=1
     )
-    loop.run(max_cycles=int(args.rate * args.seconds))
+    if collector is not None:
+        collector.start()
+    try:
+        loop.run(max_cycles=int(args.rate * args.seconds))
+    finally:
+        if collector is not None:
+            collector.stop()
     finished.set()
     thread.join()
     publisher.close()
     runtime.cleanup()
+    if line_check is not None:
+        line_check.close()
     pieces = breakdown.summary()
     rows = breakdown.collision_summary(close)
     by_segment = breakdown.segment_summary(names)
@@ -316,9 +337,24 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             for name, v in by_segment.items()
         )
     )
+    gc_figures = None
+    if collector is not None:
+        gc_figures = {
+            "young": collector.collections[0],
+            "middle": collector.collections[1],
+            "frozen_instead": collector.freezes,
+            "forced": collector.forced,
+            "cost_us": [round(c / 1e3, 1) for c in collector.cost_ns],
+        }
+        print(
+            f"garbage collection in the slack: {gc_figures['young']} young, "
+            f"{gc_figures['middle']} middle, {gc_figures['frozen_instead']} frozen instead, "
+            f"{gc_figures['forced']} forced; last cost {gc_figures['cost_us']} us"
+        )
     if core.alarms:
         print(f"alarms: {core.alarms}")
     return {
+        "gc": gc_figures,
         "load": [round(x, 2) for x in load],
         "motions": done["motions"],
         "alarms": len(core.alarms),
@@ -347,6 +383,20 @@ def main() -> int:
         default=1e-4,
         help="sys.setswitchinterval [s]: how long another Python thread may hold the GIL "
         "(CPython's default 5 ms shows up as late cycles)",
+    )
+    parser.add_argument(
+        "--planner",
+        choices=("process", "thread"),
+        default="process",
+        help="where the hand line's reachability check runs: a worker process, as the "
+        "daemon's gateway plans in its own process (default), or the planner thread",
+    )
+    parser.add_argument(
+        "--gc",
+        choices=("slack", "automatic"),
+        default="slack",
+        help="garbage collection: in the loop's slack as the daemon does (default), or "
+        "CPython's automatic collection",
     )
     args = parser.parse_args()
     if args.runs < 1:

@@ -10,7 +10,9 @@ between the two arms).
 from __future__ import annotations
 
 import math
+import multiprocessing
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pinocchio as pin
@@ -18,6 +20,7 @@ import pinocchio as pin
 from controller.control.core import MotionCore
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import axis_value, elbow_axis
+from controller.model.robot import load_robot
 from controller.motion.motions import (
     CartesianMotion,
     CPHoldMotion,
@@ -33,24 +36,85 @@ from controller.vocabulary import RightLeft, UnitType
 
 RIGHT = RightLeft.RIGHT
 Factory = Callable[[MotionCore], Motion | None]
+#: The hand line's reachability check: ``check(q [rad], sign) -> reachable``.
+LineCheck = Callable[[np.ndarray, float], bool]
 #: The segment of the mix with the two arms close together.
 ARMS_CLOSE = "arms close"
 #: In "arms close", each hand goes to this share of its distance from the point between them.
 CLOSE_SHARE = 0.25
 
 
-def segments(core: MotionCore) -> list[tuple[str, Factory]]:
+def _line(kin: Kinematics, dt: float, sign: float) -> CartesianMotion:
+    """The right hand's line of the mix from where ``kin`` is: 50 mm out in x and z."""
+    start = kin.pose(RIGHT)
+    end = pin.SE3(start.rotation, start.translation + sign * np.array([0.05, 0, 0.05]))
+    return CartesianMotion(kin, dt, RIGHT, LinePath(start, end), (0.2, 1.0), (0.5, 2.0), {})
+
+
+def _reachable(kin: Kinematics, checker: ReachabilityChecker, dt: float, sign: float) -> bool:
+    m = _line(kin, dt, sign)
+    return checker.check(kin, RIGHT, m.path, m.setup()) is None
+
+
+_worker: dict[str, object] = {}
+
+
+def _start_worker(robot_id: str, dt: float) -> None:
+    kin = Kinematics(load_robot(robot_id))
+    _worker.update(kin=kin, checker=ReachabilityChecker(kin), dt=dt)
+
+
+def _ready() -> bool:
+    return "kin" in _worker
+
+
+def _check_in_worker(q: np.ndarray, sign: float) -> bool:
+    kin = _worker["kin"]
+    assert isinstance(kin, Kinematics)
+    kin.update(q)
+    return _reachable(kin, _worker["checker"], _worker["dt"], sign)  # type: ignore[arg-type]
+
+
+class WorkerLineCheck:
+    """The hand line's reachability check in a worker process.
+
+    In the daemon the gateway plans in its own process: the control process never runs a
+    check, and its loop shares the GIL with no planner. A benchmark planning in a thread of
+    the loop's process would add what the daemon does not have: the loop waiting for the GIL
+    while the planner thread, preempted by other processes on a busy machine, holds it.
+    """
+
+    def __init__(self, robot_id: str, dt: float):
+        self._pool = ProcessPoolExecutor(
+            1,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_start_worker,
+            initargs=(robot_id, dt),
+        )
+        self._pool.submit(_ready).result()  # started and loaded before the first cycle
+
+
+    def __call__(self, q: np.ndarray, sign: float) -> bool:
+        return bool(self._pool.submit(_check_in_worker, q, sign).result())
+
+    def close(self) -> None:
+        self._pool.shutdown()
+
+
+def segments(core: MotionCore, line_check: LineCheck | None = None) -> list[tuple[str, Factory]]:
     """The motion mix for this robot: (segment name, factory building the motion on the
-    planning copy)."""
+    planning copy). ``line_check`` replaces the hand line's reachability check in this
+    thread (e.g. :class:`WorkerLineCheck`)."""
     kin, dt = core.planning_kinematics(), core.dt
     checker = ReachabilityChecker(kin)
 
     def line(sign: float) -> Factory:
         def make(c: MotionCore) -> Motion | None:
-            start = kin.pose(RIGHT)
-            end = pin.SE3(start.rotation, start.translation + sign * np.array([0.05, 0, 0.05]))
-            m = CartesianMotion(kin, dt, RIGHT, LinePath(start, end), (0.2, 1.0), (0.5, 2.0), {})
-            return m if checker.check(kin, RIGHT, m.path, m.setup()) is None else None
+            if line_check is not None:
+                ok = line_check(kin.q.copy(), sign)
+            else:
+                ok = _reachable(kin, checker, dt, sign)
+            return _line(kin, dt, sign) if ok else None
 
         return make
 

@@ -45,6 +45,9 @@ class RealtimeConfig(_Strict):
     enabled: bool = True
     priority: int = Field(default=80, ge=1, le=99)
     lock_memory: bool = True
+    #: Run Python's garbage collector only in the control loop's slack, never mid-cycle
+    #: (controller.control.collector). Off: CPython's automatic collection.
+    collect_in_slack: bool = True
 
 
 class TokensConfig(_Strict):

@@ -7,6 +7,10 @@ duration). A step that ends after the next deadline is an *overrun*: it is count
 loop resumes at the first deadline still in the future, never catching up with a burst of
 late cycles. With ``paced=False`` cycles run back to back without sleeping (lockstep
 simulation, tests); the step then sees ``t = cycle × period``.
+
+An optional ``slack(ns)`` callable runs after each step with the time left before the next
+deadline [ns] (the whole period when unpaced), outside the compute time: the place for work
+that may wait, such as :class:`controller.control.collector.SlackCollector`.
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ from controller.control import realtime as rt
 #: The step: ``step(cycle, t)`` with ``t`` the cycle's deadline since the start [s];
 #: returning False stops the loop.
 Step = Callable[[int, float], bool | None]
+#: Work for the time left before the next deadline: ``slack(ns)``.
+Slack = Callable[[int], None]
 
 MIN_RATE_HZ = 1.0
 MAX_RATE_HZ = 2000.0
@@ -104,6 +110,7 @@ class FixedRateLoop:
     :meth:`run`, at its start (best effort, warnings when refused), restored when it returns.
     ``spin_us``: busy-wait for the last microseconds before each deadline (costs a CPU).
     ``stats_capacity``: cycles kept by :attr:`stats` (default 10 s worth).
+    ``slack``: called after each step with the time left before the next deadline [ns].
     ``clock_ns`` and ``sleep`` replace :func:`time.monotonic_ns` and :func:`time.sleep` (tests).
     """
 
@@ -116,6 +123,7 @@ class FixedRateLoop:
         *,
         spin_us: float = 0.0,
         stats_capacity: int | None = None,
+        slack: Slack | None = None,
         clock_ns: Callable[[], int] = time.monotonic_ns,
         sleep: Callable[[float], None] = time.sleep,
     ):
@@ -130,6 +138,7 @@ class FixedRateLoop:
             raise ValueError(f"spin_us must be within 0..period, got {spin_us!r}")
         self.spin_ns = round(spin_us * 1e3)
         self.step = step
+        self.slack = slack
         self.realtime = realtime
         self.paced = paced
         capacity = stats_capacity or max(1, math.ceil(DEFAULT_HISTORY_S * rate_hz))
@@ -179,6 +188,7 @@ class FixedRateLoop:
 
     def _run_paced(self, max_cycles: int | None) -> int:
         clock, period, stats, step, stop = self._hot_path()
+        slack = self.slack
         cycle = 0
         k = 0  # deadline index
         t0 = clock()
@@ -197,18 +207,24 @@ class FixedRateLoop:
             if end > t0 + k * period:
                 stats.record_overrun()
                 k = (end - t0) // period + 1
+            if slack is not None:
+                slack(t0 + k * period - end)
         return cycle
 
     def _run_unpaced(self, max_cycles: int | None) -> int:
         clock, period, stats, step, stop = self._hot_path()
+        slack = self.slack
         cycle = 0
         while not stop.is_set() and (max_cycles is None or cycle < max_cycles):
             start = clock()
             result = step(cycle, cycle * period / 1e9)
-            stats.record((clock() - start) / 1e3, 0.0)
+            end = clock()
+            stats.record((end - start) / 1e3, 0.0)
             cycle += 1
             if result is False:
                 break
+            if slack is not None:
+                slack(max(0, period - (end - start)))
         return cycle
 
     def _hot_path(

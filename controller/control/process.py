@@ -29,6 +29,7 @@ from typing import Any
 
 from controller.contract.motion_specs import MotionSpec
 from controller.control.blackbox import BlackBoxRing
+from controller.control.collector import SlackCollector
 from controller.control.commands import DIRECT, URGENT, Commands
 from controller.control.core import MotionCore
 from controller.control.events import LoopEvents
@@ -73,14 +74,22 @@ class Controller(Commands):
         queue_depth: int = 8,
         solver: str = "daqp",
         obstacles: Sequence[Obstacle] = (),
+        collect_in_slack: bool = True,
     ):
+        """``collect_in_slack``: while :meth:`run` runs, the garbage collector runs only in
+        the loop's slack (:class:`~controller.control.collector.SlackCollector`)."""
         self.robot = robot
         self.hw = hardware
         self.dt = 1.0 / rate_hz
         self.core = MotionCore(robot, hardware, self.dt, solver, obstacles)
+        self.collector = SlackCollector() if collect_in_slack else None
         # Statistics over the last second: cheap enough to summarise from the loop thread.
         self.loop = FixedRateLoop(
-            rate_hz, self._step, realtime=False, stats_capacity=max(1, round(rate_hz))
+            rate_hz,
+            self._step,
+            realtime=False,
+            stats_capacity=max(1, round(rate_hz)),
+            slack=self.collector,
         )
         self.overruns = OverrunWatch(self.loop, self.core)
         #: Deadline time [s] of the last cycle (the loop's ``t``), for the measured period.
@@ -139,7 +148,13 @@ class Controller(Commands):
 
     def run(self) -> None:
         """Run the loop in the calling thread until shutdown."""
-        self.loop.run()
+        if self.collector is not None:
+            self.collector.start()
+        try:
+            self.loop.run()
+        finally:
+            if self.collector is not None:
+                self.collector.stop()
 
     def _execute(self, request: Request) -> None:
         if request.cancelled:  # its caller gave up waiting: never act on it late

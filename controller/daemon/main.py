@@ -124,6 +124,7 @@ class Daemon:
             cfg.queue_depth,
             cfg.loop.solver,
             cfg.obstacles,
+            collect_in_slack=cfg.realtime.collect_in_slack,
         )
         self.controller.stop_timeout = cfg.stop_timeout_s
         if cfg.blackbox.dir is not None:
