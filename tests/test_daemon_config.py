@@ -73,6 +73,8 @@ def test_set_values_are_yaml(tmp_path: Path):
         ("listen: 'unix:'\n", "listen"),
         ("stop_timeout_s: 0\n", "stop_timeout_s"),
         ("jara:\n  max_speed_cartesian: [1]\n", "jara.max_speed_cartesian"),
+        ("realtime:\n  priority: 10\n  helper_priority: 10\n", "realtime"),
+        ("realtime:\n  helper_priority: -1\n", "realtime.helper_priority"),
     ],
 )
 def test_invalid_settings_name_the_file_and_key(tmp_path: Path, text: str, where: str):

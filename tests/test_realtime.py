@@ -15,6 +15,7 @@ import logging
 import os
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -131,10 +132,10 @@ def test_success_is_reported_and_restored(monkeypatch, caplog):
     monkeypatch.setattr(realtime, "_libc", lambda: libc)
     caplog.set_level(logging.WARNING, logger="controller.control.realtime")
     previous = os.sched_getscheduler(0)
-    report = apply_realtime(priority=90)
+    report = apply_realtime(priority=90, helper_priority=0)
     assert report.fifo and report.memory_locked and report.gc_frozen and report.all_in_effect
     assert report.previous_policy == previous
-    assert calls == [(0, os.SCHED_FIFO, 90)]
+    assert calls == [(0, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 90)]
     assert warnings_of(caplog) == []
     restore(report)
     assert calls[-1] == (0, previous, report.previous_priority)
@@ -156,6 +157,58 @@ def test_priority_out_of_range(priority: int):
         apply_realtime(priority=priority)
 
 
+@pytest.mark.parametrize("helper", [-1, 80, 90])
+def test_helper_priority_must_be_below_the_loops(helper: int):
+    with pytest.raises(ValueError, match=r"below the loop's"):
+        apply_realtime(priority=80, helper_priority=helper)
+
+
+def _helper_thread() -> tuple[threading.Thread, threading.Event]:
+    release = threading.Event()
+    thread = threading.Thread(target=release.wait, name="helper-under-test", daemon=True)
+    thread.start()
+    return thread, release
+
+
+def test_helper_threads_go_to_the_lowest_fifo_priority_and_back(monkeypatch):
+    calls: list[tuple[int, int, int]] = []
+    monkeypatch.setattr(
+        os, "sched_setscheduler", lambda pid, pol, p: calls.append((pid, pol, p.sched_priority))
+    )
+    monkeypatch.setattr(realtime, "_libc", lambda: FakeLibc(0))
+    thread, release = _helper_thread()
+    try:
+        report = apply_realtime(priority=80, freeze_gc=False)
+        assert (thread.native_id, "helper-under-test") in report.helpers
+        assert (thread.native_id, os.SCHED_FIFO, 1) in calls
+        assert all(tid != threading.get_native_id() for tid, _ in report.helpers)
+        calls.clear()
+        restore(report)
+        assert (thread.native_id, os.SCHED_OTHER, 0) in calls
+    finally:
+        release.set()
+        thread.join()
+
+
+def test_refused_helper_threads_are_reported(monkeypatch, caplog):
+    def only_self(pid, pol, p):
+        if pid:
+            refuse()
+
+    monkeypatch.setattr(os, "sched_setscheduler", only_self)
+    caplog.set_level(logging.WARNING, logger="controller.control.realtime")
+    thread, release = _helper_thread()
+    try:
+        report = apply_realtime(lock_memory=False, freeze_gc=False)
+        assert report.fifo and report.helpers == []
+        assert any("'helper-under-test' not at SCHED_FIFO 1" in m for m in report.messages)
+        assert_clean_one_line_warnings(warnings_of(caplog), len(report.messages))
+        restore(report)
+    finally:
+        release.set()
+        thread.join()
+
+
 @pytest.mark.parametrize("unprivileged", [False, True])
 def test_real_call_in_a_child_process(unprivileged: bool):
     """The real system calls, whatever this machine allows, in a throwaway process.
@@ -170,15 +223,25 @@ def test_real_call_in_a_child_process(unprivileged: bool):
         "from controller.control.realtime import apply_realtime, restore\n"
         # Drop after the imports: the interpreter's files need not be readable by nobody.
         + ("os.setgid(65534); os.setuid(65534)\n" if unprivileged else "")
-        + "before = os.sched_getscheduler(0)\n"
+        + "import threading\n"
+        "release = threading.Event()\n"
+        "helper = threading.Thread(target=release.wait); helper.start()\n"
+        "before = os.sched_getscheduler(0)\n"
         "r = apply_realtime(priority=10)\n"
-        "during = os.sched_getscheduler(0)\n"
+        "during = os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK\n"
+        "helper_during = os.sched_getscheduler(helper.native_id)\n"
+        "started = []\n"
+        "later = threading.Thread(target=lambda: started.append(os.sched_getscheduler(0)))\n"
+        "later.start(); later.join()\n"
         "frozen = gc.get_freeze_count()\n"
         "flags = [r.fifo, r.memory_locked, r.gc_frozen]\n"
         "restore(r)\n"
+        "helper_after = os.sched_getscheduler(helper.native_id)\n"
+        "release.set(); helper.join()\n"
         "print(json.dumps({'flags': flags, 'messages': r.messages, 'before': before,\n"
         "  'during': during, 'after': os.sched_getscheduler(0), 'frozen': frozen,\n"
-        "  'unfrozen': gc.get_freeze_count(), 'fifo': os.SCHED_FIFO}))\n"
+        "  'unfrozen': gc.get_freeze_count(), 'fifo': os.SCHED_FIFO,\n"
+        "  'helper': [helper_during, helper_after], 'later': started[0]}))\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60
@@ -189,6 +252,10 @@ def test_real_call_in_a_child_process(unprivileged: bool):
     assert frozen and result["frozen"] > 0 and result["unfrozen"] == 0
     assert (result["during"] == result["fifo"]) == fifo
     assert result["after"] == result["before"]
+    # The other thread at FIFO 1 while the loop is real-time, and back; a thread the loop
+    # thread starts is an ordinary one (SCHED_RESET_ON_FORK), never at the loop's priority.
+    assert result["helper"] == ([result["fifo"], 0] if fifo else [0, 0])
+    assert result["later"] == 0
     # Every measure not in effect has its one-line message, and each was logged once.
     assert len(result["messages"]) == (not fifo) + (not locked)
     logged = [line for line in out.stderr.splitlines() if "real-time:" in line]

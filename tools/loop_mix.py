@@ -93,7 +93,6 @@ class WorkerLineCheck:
         )
         self._pool.submit(_ready).result()  # started and loaded before the first cycle
 
-
     def __call__(self, q: np.ndarray, sign: float) -> bool:
         return bool(self._pool.submit(_check_in_worker, q, sign).result())
 

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from controller.contract.corba_config import CorbaConfig, corba_problems, corba_warnings
 from controller.model.obstacles import Obstacle, check_unique
@@ -44,10 +44,22 @@ class RealtimeConfig(_Strict):
     #: Try SCHED_FIFO + mlockall for the loop thread (falls back with a warning).
     enabled: bool = True
     priority: int = Field(default=80, ge=1, le=99)
+    #: SCHED_FIFO priority of the control process's other threads (below ``priority``; 0:
+    #: leave them ordinary). They share the loop's GIL (controller.control.realtime).
+    helper_priority: int = Field(default=1, ge=0, le=98)
     lock_memory: bool = True
     #: Run Python's garbage collector only in the control loop's slack, never mid-cycle
     #: (controller.control.collector). Off: CPython's automatic collection.
     collect_in_slack: bool = True
+
+    @model_validator(mode="after")
+    def _helpers_below_the_loop(self) -> RealtimeConfig:
+        if self.helper_priority >= self.priority:
+            raise ValueError(
+                f"realtime.helper_priority ({self.helper_priority}) must be below "
+                f"realtime.priority ({self.priority})"
+            )
+        return self
 
 
 class TokensConfig(_Strict):

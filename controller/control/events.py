@@ -52,12 +52,19 @@ class LoopEvents:
         self._out: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._thread: threading.Thread | None = None
 
+    def start(self) -> None:
+        """Start the ``loop-events`` thread now (idempotent; else at the first event). The
+        daemon starts it before the loop thread turns real-time, so it is one of the helper
+        threads (controller.control.realtime), not an ordinary thread the loop started."""
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._drain, name="loop-events", daemon=True)
+            self._thread.start()
+
     def _emit(self, level: str, event: str, **fields: Any) -> None:
         """Hand one log event to the ``loop-events`` thread (never blocks)."""
         self._out.put((level, event, fields))
         if self._thread is None:
-            self._thread = threading.Thread(target=self._drain, name="loop-events", daemon=True)
-            self._thread.start()
+            self.start()
 
     def _drain(self) -> None:
         while True:

@@ -362,8 +362,16 @@ def _main(args: argparse.Namespace) -> int:
         _log.error("cannot start the gateway: %s", exc)
         daemon.close()
         return 1
+    # Helper threads first: apply_realtime puts the threads alive at the call at the lowest
+    # real-time priority; one the loop thread started later would be an ordinary thread.
+    daemon.controller.events.start()
+    threading.Thread(target=_supervise, args=(daemon,), name="supervise", daemon=True).start()
     report = (
-        apply_realtime(cfg.realtime.priority, cfg.realtime.lock_memory)
+        apply_realtime(
+            cfg.realtime.priority,
+            cfg.realtime.lock_memory,
+            helper_priority=cfg.realtime.helper_priority,
+        )
         if cfg.realtime.enabled
         else None
     )
@@ -375,7 +383,6 @@ def _main(args: argparse.Namespace) -> int:
         address,
     )
     systemd.notify("READY=1", f"STATUS=ready on {address}")
-    threading.Thread(target=_supervise, args=(daemon,), name="supervise", daemon=True).start()
     try:
         daemon.run()
     finally:
