@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+import pinocchio as pin
+
 from controller.control.core import CoreState, MotionCore
 from controller.motion.motions import Motion
 from hal.ideal_backend import IdealBackend
@@ -41,3 +44,12 @@ def run_motion(
     assert core.motion is None, f"motion still running after {max_cycles} cycles"
     assert core.state == CoreState.READY, core.alarms
     return cycles
+
+
+def chord_twist(a: pin.SE3, b: pin.SE3, dt: float) -> np.ndarray:
+    """The constant twist taking pose ``a`` to ``b`` in ``dt`` [s] (linear then angular,
+    world axes [m/s, rad/s]), through log3: the reference for the paths' closed forms."""
+    out = np.empty(6)
+    out[:3] = (b.translation - a.translation) / dt
+    out[3:] = pin.log3(b.rotation @ a.rotation.T) / dt
+    return out

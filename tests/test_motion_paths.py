@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from controller.motion.paths import ArcPath, LinePath, VectorPath
+from tests.motion_support import chord_twist
 
 #: Step of the central differences in s.
 H = 1e-6
@@ -337,3 +338,30 @@ def test_arc_samples_are_at_most_a_step_apart_and_include_both_ends(circle, rot,
     path = arc(**circle, rotations=(np.eye(3), np.eye(3), pin.exp3(rot)))
     assert_samples_spaced(path, step, angle_step)
     assert len(path.samples(step, angle_step)) >= 3
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(-1.0, 1.0), min_size=6, max_size=6),
+    st.floats(0.0, 1.0),
+    st.floats(0.0, 0.02),
+    st.floats(1e-4, 0.01),
+    st.booleans(),
+)
+def test_average_twist_in_closed_form_is_the_chord_between_two_poses(
+    v: list[float], s0: float, ds: float, dt: float, arc: bool
+):
+    """Both paths' closed forms equal log3 of the relative rotation (and the position chord),
+    ends clamped included (s1 may pass 1)."""
+    start = pin.SE3(pin.exp3(np.array(v[3:]) * 2.0), np.array([0.3, -0.2, 0.8]))
+    end = pin.SE3(
+        pin.exp3(np.array(v[:3]) * 2.0), np.array([0.5, 0.1, 0.9]) + 0.1 * np.array(v[3:])
+    )
+    if arc:
+        via = pin.SE3(start.rotation, np.array([0.45, -0.15, 1.1]))
+        path: LinePath | ArcPath = ArcPath(start, via, end)
+    else:
+        path = LinePath(start, end)
+    s1 = s0 + ds
+    expected = chord_twist(path.at(s0), path.at(s1), dt)
+    np.testing.assert_allclose(path.average_twist(s0, s1, dt), expected, rtol=0, atol=1e-9 / dt)

@@ -30,7 +30,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import pinocchio as pin
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
@@ -106,15 +105,6 @@ class Motion(abc.ABC):
 
     def resume(self) -> None:
         self.profile.resume()
-
-
-def average_twist(a: pin.SE3, b: pin.SE3, dt: float) -> np.ndarray:
-    """Constant twist taking pose ``a`` to ``b`` in ``dt`` [s]: linear then angular, in the
-    frame's axes [m/s, rad/s]."""
-    out = np.empty(6)
-    out[:3] = (b.translation - a.translation) / dt
-    out[3:] = pin.log3(b.rotation @ a.rotation.T) / dt
-    return out
 
 
 def follow_vector(tasks: list[AxisTask], path: VectorPath, s0: float, s1: float, dt: float):
@@ -281,8 +271,6 @@ class CartesianMotion(Motion):
         self.profile_limits = (v, a)
         self.profile = PathProfile(dt, v, a, duration)
         self.task = ControlPointTask(side, path.at(0.0))
-        #: The last (s, pose) :meth:`apply` evaluated ahead.
-        self._ahead: tuple[float, pin.SE3] | None = None
         self.allowed = dict(allowed)
         self.ranges = dict(ranges or {})
         other = other_side(side)
@@ -314,13 +302,8 @@ class CartesianMotion(Motion):
         return IKSetup(tasks, frozen, allowed, self.ranges)
 
     def apply(self, s0: float, s1: float, dt: float) -> None:
-        # The pose at s1 is the next cycle's pose at s0 (the time law goes on from there):
-        # one path evaluation per cycle, not two.
-        ahead = self._ahead
-        now = ahead[1] if ahead is not None and ahead[0] == s0 else self.path.at(s0)
-        nxt = self.path.at(s1)
-        self._ahead = (s1, nxt)
-        self.task.set_target(now, average_twist(now, nxt, dt))
+        # One pose per cycle; the feed-forward toward s1 in the path's closed form.
+        self.task.set_target(self.path.at(s0), self.path.average_twist(s0, s1, dt))
         if self.elbow is not None and self.elbow_path is not None:
             e0, e1 = float(self.elbow_path.at(s0)[0]), float(self.elbow_path.at(s1)[0])
             self.elbow.set_target(e0, (e1 - e0) / dt)

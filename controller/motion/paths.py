@@ -70,6 +70,8 @@ class LinePath:
         self.omega_world = start.rotation @ self.omega
         # The start as arrays (reading them from the SE3 converts every time).
         self._r0, self._p0 = start.rotation.copy(), start.translation.copy()
+        #: Twist for ṡ = 1 [m, rad per unit of s]: linear then angular, world axes.
+        self._twist_per_s = np.concatenate([self.dp, self.omega_world])
 
     @property
     def length(self) -> float:
@@ -85,12 +87,20 @@ class LinePath:
         s = _clamp(s)
         return pin.SE3(self._r0 @ pin.exp3(s * self.omega), self._p0 + s * self.dp)
 
+    def rotation_at(self, s: float) -> np.ndarray:
+        """The orientation at ``s`` (a 3x3 matrix)."""
+        return self._r0 @ pin.exp3(_clamp(s) * self.omega)
+
     def twist(self, s: float, sd: float) -> np.ndarray:
         """Linear [m/s] and angular [rad/s] velocity (frame axes) for ṡ = ``sd``."""
-        out = np.empty(6)
-        out[:3] = self.dp * sd
-        out[3:] = self.omega_world * sd
-        return out
+        return self._twist_per_s * sd
+
+    def average_twist(self, s0: float, s1: float, dt: float) -> np.ndarray:
+        """The constant twist taking the pose at ``s0`` to the pose at ``s1`` in ``dt`` [s]
+        (linear [m/s], angular [rad/s], world axes), in closed form: both components are
+        proportional to s on a line, so it is the twist at the mean rate, with no log3 of
+        the relative rotation (equal to it while the step turns less than π)."""
+        return self._twist_per_s * ((_clamp(s1) - _clamp(s0)) / dt)
 
     def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
         """(ṡ_max, s̈_max) from (translation, rotation) speed and acceleration limits."""
@@ -148,9 +158,18 @@ class ArcPath:
 
     def at(self, s: float) -> pin.SE3:
         s = _clamp(s)
-        phi = s * self.sweep
-        pos = self.centre + self.radius * (math.cos(phi) * self._e1 + math.sin(phi) * self._e2)
-        return pin.SE3(self._rotation.at(s).rotation, pos)
+        return pin.SE3(self._rotation.rotation_at(s), self._position(s))
+
+    def average_twist(self, s0: float, s1: float, dt: float) -> np.ndarray:
+        """The constant twist taking the pose at ``s0`` to the pose at ``s1`` in ``dt`` [s]:
+        the chord over ``dt`` for the position, the rotation's closed form (as on a line)."""
+        out = self._rotation.average_twist(s0, s1, dt)
+        out[:3] = (self._position(s1) - self._position(s0)) / dt
+        return out
+
+    def _position(self, s: float) -> np.ndarray:
+        phi = _clamp(s) * self.sweep
+        return self.centre + self.radius * (math.cos(phi) * self._e1 + math.sin(phi) * self._e2)
 
     def twist(self, s: float, sd: float) -> np.ndarray:
         phi = _clamp(s) * self.sweep
