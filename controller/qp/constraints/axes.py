@@ -33,6 +33,7 @@ from controller.qp.constraints.protocol import (
     Relaxation,
     RowBlock,
 )
+from controller.vocabulary import RightLeft
 
 #: A held elbow angle is not enforced while the elbow is closer than this [m] to the
 #: shoulder-wrist line: the angle is (nearly) undefined there and its Jacobian explodes.
@@ -63,16 +64,20 @@ class AxisLimit:
         self.dt = dt
         self._joints = [axis_joints(kin, a) for a in axes]
         self._a_max = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
-        #: (row, axis, held value [rad, m]) and (row, axis, lower, upper [rad, m]).
-        self._held: list[tuple[int, RedundantAxis, float]] = []
+        #: (row, axis, held value [rad, m], elbow side or None) and (row, axis, lower, upper
+        #: [rad, m]).
+        self._held: list[tuple[int, RedundantAxis, float, RightLeft | None]] = []
         self._ranged: list[tuple[int, RedundantAxis, float, float]] = []
+        #: (row, axis) of every row, in row order.
+        self._rows: list[tuple[int, RedundantAxis]] = []
         #: Index in ``axes`` of the axis of each row.
         self.active = np.zeros(0, dtype=int)
         self.max_rows = 0
+        self._pos = self._neg = np.zeros((0, kin.nv))
 
     def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
         """Masked axes are held at their values in ``kin``'s last update."""
-        held: list[tuple[int, RedundantAxis, float]] = []
+        held: list[tuple[int, RedundantAxis, float, RightLeft | None]] = []
         ranged: list[tuple[int, RedundantAxis, float, float]] = []
         active: list[int] = []
         for i, axis in enumerate(self.axes):
@@ -80,38 +85,49 @@ class AxisLimit:
                 continue  # cannot move anyway
             limits = setup.ranges.get(axis)
             if not setup.allowed.get(axis, True):
-                held.append((len(active), axis, axis_value(kin, axis)))
+                side = axis.side if axis.is_elbow else None
+                held.append((len(active), axis, axis_value(kin, axis), side))
             elif limits is not None:
                 ranged.append((len(active), axis, limits[0], limits[1]))
             else:
                 continue
             active.append(i)
         self._held, self._ranged = held, ranged
+        self._rows = [(k, self.axes[i]) for k, i in enumerate(active)]
         self.active = np.array(active, dtype=int)
-        self.max_rows = len(active)
+        self.max_rows = n = len(active)
+        self._pos, self._neg = np.zeros((n, kin.nv)), np.zeros((n, kin.nv))
 
     def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
         kin, lb, ub, dt = cycle.kin, cycle.lb, cycle.ub, self.dt
         C, lo, hi = rows
-        for k, axis, hold in self._held:
-            row = C[k]
-            row[...] = axis_jacobian(kin, axis)
-            if axis.is_elbow and kin.elbow_offset(axis.side) < HOLD_MIN_ELBOW_OFFSET:
-                lo[k], hi[k] = -INF, INF  # nearly stretched: no elbow angle to hold
-                continue
-            err = hold - axis_value(kin, axis)
-            if axis.is_elbow:
-                err = math.remainder(err, math.tau)
+        n = self.max_rows
+        if not n:
+            return 0
+        for k, axis in self._rows:
+            C[k] = axis_jacobian(kin, axis)
+        # What the cycle's joint box lets each row reach, all rows at once.
+        box = lb is not None and ub is not None
+        if lb is not None and ub is not None:
+            reach_lo, reach_hi = _reachable(C[:n], lb, ub, self._pos, self._neg)
+        for k, axis, hold, elbow_side in self._held:
+            if elbow_side is not None:
+                if kin.elbow_offset(elbow_side) < HOLD_MIN_ELBOW_OFFSET:
+                    lo[k], hi[k] = -INF, INF  # nearly stretched: no elbow angle to hold
+                    continue
+                err = math.remainder(hold - kin.elbow_angle(elbow_side), math.tau)
+            else:
+                err = hold - axis_value(kin, axis)
             rate = HOLD_FRACTION * err / dt
-            if lb is not None and ub is not None:
-                r_lo, r_hi = _reachable(row, lb, ub)
-                rate = min(max(rate, r_lo), r_hi)
+            if box:
+                rate = min(max(rate, reach_lo[k]), reach_hi[k])
             lo[k] = hi[k] = rate
+        if self._ranged:
+            # Half the deceleration the axis's best joint gives it, per row.
+            brake_all = BRAKING_SHARE * np.max(np.abs(C[:n]) * self._a_max, axis=1)
         for k, axis, rmin, rmax in self._ranged:
-            row = C[k]
-            row[...] = axis_jacobian(kin, axis)
             x = axis_value(kin, axis)
-            brake = BRAKING_SHARE * float(np.max(np.abs(row) * self._a_max))
+            brake = float(brake_all[k])
             # Inside: brake before the bound. Outside (linearisation drift): pull back in.
             low = -braking_speed(x - rmin, brake, dt)
             high = braking_speed(rmax - x, brake, dt)
@@ -121,10 +137,10 @@ class AxisLimit:
             elif x > rmax:
                 high = HOLD_FRACTION * (rmax - x) / dt
                 low = min(low, high)
-            if lb is not None and ub is not None:
-                low, high = _fit(low, high, *_reachable(row, lb, ub))
+            if box:
+                low, high = _fit(low, high, reach_lo[k], reach_hi[k])
             lo[k], hi[k] = low, high
-        return self.max_rows
+        return n
 
 
 def _fit(low: float, high: float, r_lo: float, r_hi: float) -> tuple[float, float]:
@@ -137,13 +153,17 @@ def _fit(low: float, high: float, r_lo: float, r_hi: float) -> tuple[float, floa
     return max(low, r_lo), min(high, r_hi)
 
 
-def _reachable(row: np.ndarray, lb: np.ndarray, ub: np.ndarray) -> tuple[float, float]:
-    """``row · v`` over the box ``lb ≤ v ≤ ub``: its range shrunk by REACH_MARGIN each end."""
-    pos = np.maximum(row, 0.0)
-    neg = np.minimum(row, 0.0)
-    low, high = float(pos @ lb + neg @ ub), float(pos @ ub + neg @ lb)
+def _reachable(
+    rows: np.ndarray, lb: np.ndarray, ub: np.ndarray, pos: np.ndarray, neg: np.ndarray
+) -> tuple[list[float], list[float]]:
+    """Per row, ``row · v`` over the box ``lb ≤ v ≤ ub``: its range shrunk by REACH_MARGIN
+    each end. ``pos`` and ``neg``: scratch of the rows' shape."""
+    np.maximum(rows, 0.0, out=pos)
+    np.minimum(rows, 0.0, out=neg)
+    low = pos.dot(lb) + neg.dot(ub)
+    high = pos.dot(ub) + neg.dot(lb)
     margin = REACH_MARGIN * (high - low)
-    return low + margin, high - margin
+    return (low + margin).tolist(), (high - margin).tolist()
 
 
 class AxisRows:
