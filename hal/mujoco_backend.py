@@ -26,6 +26,9 @@ The robot's generated MJCF (``robot.xml``, never edited) is loaded with
   wrist and finger inertias of the stand-in models couple into modes 80 times stiffer.
 * **Gravity compensation.** Every body has ``gravcomp = 1``, so holding and tracking carry no
   gravity bias (the servo has no integrator).
+* **Contacts.** The generated models give no geom a contact type, so nothing collides: the
+  collision pass is then switched off (``mjDSBL_CONTACT``). A model with colliding geoms
+  keeps it.
 * **Timestep.** ``dt / substeps`` with ``substeps`` chosen so the timestep is at most
   :data:`MAX_TIMESTEP` [s]; ω·timestep stays below 0.4.
 
@@ -273,6 +276,10 @@ class MujocoBackend(HardwareInterface):
             spec.actuator(f"{name}_pos").biasprm = _prm(0.0, -self._kp[i], -self._kv[i])
             spec.actuator(f"{name}_ff").gainprm = _prm(self._kv[i])
         model = spec.compile()
+        if not (model.geom_contype.any() or model.geom_conaffinity.any()):
+            # No geom can touch another: skip the collision pass of every step (a quarter of
+            # mj_step on SmartPal V, 22 -> 16 us).
+            model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
         data = mujoco.MjData(model)
         self._set_initial(model, data)
         assert model.nu == 2 * total

@@ -354,3 +354,17 @@ def test_diverged_simulation_is_reset_and_reported(monkeypatch, tmp_path):
     np.testing.assert_allclose(state.position, start, atol=1e-9)
     assert np.isfinite(state.velocity).all()
     assert hw.reset_faults() is True
+
+
+def test_the_collision_pass_is_off_only_when_no_geom_can_collide(monkeypatch):
+    contact = mujoco.mjtDisableBit.mjDSBL_CONTACT
+    assert backend().model.opt.disableflags & contact  # the generated models: none can
+    build = MujocoBackend._build_spec
+
+    def with_a_colliding_geom(self: MujocoBackend) -> mujoco.MjSpec:
+        spec = build(self)
+        spec.geoms[0].contype = 1
+        return spec
+
+    monkeypatch.setattr(MujocoBackend, "_build_spec", with_a_colliding_geom)
+    assert not backend().model.opt.disableflags & contact
