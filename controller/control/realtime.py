@@ -13,8 +13,8 @@ recorded in the returned :class:`RealtimeReport`. :func:`restore` undoes what to
   other Python thread alive at the call (command channels, log writer, CAN heartbeat, ...).
   They share the loop's GIL: an ordinary thread that the kernel preempts for another process
   while it holds the GIL makes the loop wait until it runs again, milliseconds on a busy
-  machine (``tools/bench_loop.py`` at load 2.5: compute p99 776 -> 536 µs, the late cycles
-  gone with them). At the lowest real-time priority they still yield to the loop, but no
+  machine (``tools/bench_loop.py``, 30 s at load 2.5: compute p99 776 -> 536 µs, late
+  cycles 5 -> 2). At the lowest real-time priority they still yield to the loop, but no
   ordinary process preempts them. Threads they start inherit it. Start helper threads before
   the call.
 * **mlockall(MCL_CURRENT | MCL_FUTURE)** through libc (ctypes): page faults no longer stall
