@@ -220,8 +220,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     # Closest distance between the two arms during "arms close" [m].
     closest = {"arms": math.inf}
 
+    idle = threading.Event()  # set by the loop when the robot is idle with nothing ready
+
     def planner() -> None:
+        # Woken by the loop (a thread polling every millisecond would take the loop's GIL).
         while not finished.is_set():
+            if not idle.wait(0.1):
+                continue
+            idle.clear()
             if not ready and core.state == CoreState.READY and core.motion is None:
                 core.planning_kinematics()  # refresh the copy the factories use
                 k = done["next"] % len(mix)
@@ -231,7 +237,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     done["skipped"] += 1
                 else:
                     ready.append((k, motion))
-            time.sleep(0.001)
 
     capacity = int(args.rate * args.seconds) + 10
     breakdown = Breakdown(core, capacity, wrap=not args.no_breakdown)
@@ -253,6 +258,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             core.start(motion)
             segment["now"] = names.index(names[k])  # the segment's first entry
             done["motions"] += 1
+        elif not ready and core.motion is None and not idle.is_set():
+            idle.set()
         publish()
         compute = time.perf_counter_ns() - t0
         n_rows, between = 0, False
