@@ -111,3 +111,29 @@ def test_the_middle_generation_is_collected_when_it_fits_and_frozen_when_not(mon
         c(PLENTY)
     c(PLENTY)
     assert c.collections[1] == 1 and c.freezes == 1
+
+
+def test_stop_unfreezes_what_it_froze_but_not_what_was_frozen_before():
+    gc.collect()
+    c = SlackCollector()
+    c.start()
+    for _ in range(MIDDLE_EVERY):
+        c(PLENTY)
+        _allocate(YOUNG_THRESHOLD)
+        gc.collect(0)
+    c.cost_ns[1] = 10**9
+    c(0)
+    assert c.freezes == 1 and gc.get_freeze_count() > 0
+    c.stop()
+    assert gc.get_freeze_count() == 0
+    gc.freeze()  # someone else's (the real-time setup's)
+    frozen = gc.get_freeze_count()
+    c = SlackCollector()
+    c.start()
+    c.cost_ns[1] = 10**9
+    for _ in range(MIDDLE_EVERY):
+        gc.collect(0)
+    c(0)
+    assert c.freezes == 1
+    c.stop()
+    assert gc.get_freeze_count() >= frozen  # left frozen: not this collector's to undo

@@ -61,6 +61,7 @@ class SlackCollector:
         #: Young collections run without slack (past YOUNG_LIMIT).
         self.forced = 0
         self._was_enabled: bool | None = None
+        self._was_frozen = False
 
     @property
     def active(self) -> bool:
@@ -76,12 +77,17 @@ class SlackCollector:
         """Turn the automatic collector off (idempotent)."""
         if self._was_enabled is None:
             self._was_enabled = gc.isenabled()
+            self._was_frozen = gc.get_freeze_count() > 0
             gc.disable()
 
     def stop(self) -> None:
-        """Give the automatic collector back as :meth:`start` found it (idempotent)."""
+        """Give the automatic collector back as :meth:`start` found it (idempotent): enabled
+        if it was, and nothing frozen if nothing was (what it froze goes back to the oldest
+        generation; what someone else froze before stays frozen)."""
         if self._was_enabled is None:
             return
+        if self.freezes and not self._was_frozen:
+            gc.unfreeze()
         if self._was_enabled:
             gc.enable()
         self._was_enabled = None
