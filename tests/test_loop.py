@@ -324,3 +324,14 @@ def test_valid_rate_bounds_and_bad_arguments():
         FixedRateLoop(1000, lambda c, t: None, spin_us=1000)
     with pytest.raises(ValueError, match="max_cycles"):
         FixedRateLoop(1000, lambda c, t: None, realtime=False).run(max_cycles=-1)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 7, 100, 999, 1000, 10000])
+def test_percentiles_are_numpys_from_one_partial_sort(n: int):
+    from controller.control.loop import percentiles
+
+    rng = np.random.default_rng(n)
+    for values in (rng.exponential(300.0, n), np.round(rng.uniform(0, 50, n)), np.full(n, 7.0)):
+        expected = [*np.percentile(values, [50.0, 99.0, 0.0, 100.0]), values.max()]
+        got = percentiles(values.copy(), (50.0, 99.0, 0.0, 100.0))
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)
