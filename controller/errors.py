@@ -18,6 +18,18 @@ class ImotionError(Exception):
         super().__init__(comment)
         self.comment = comment
 
+    def __reduce__(self) -> tuple[object, ...]:
+        """Pickled with its attributes (code, comment) whatever the subclass's ``__init__``
+        takes: a planning worker process raises it, the gateway re-raises the same error."""
+        return (_restore, (type(self), self.args, dict(self.__dict__)))
+
+
+def _restore(cls: type[ImotionError], args: tuple[object, ...], state: dict) -> ImotionError:
+    error = cls.__new__(cls)
+    error.args = args
+    error.__dict__.update(state)
+    return error
+
 
 class Refused(ImotionError):
     """A call refused with an explicit code (state, queue, reachability...)."""
