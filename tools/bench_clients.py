@@ -35,7 +35,13 @@ latency p50/p99/max, cycles late by more than half a period, compute p99 and the
 rate, the getState round trip p50/p99 of both client phases against the target, the p99
 rise under load against its target (<= 30 us, no late cycle), and as the last line a JSON
 object (``<mode>.saturated`` and ``<mode>.paced``: getstate_p50_ms, getstate_p99_ms,
-calls_per_s, gateway_cpu_us_per_call, client_cpu_us_per_call; ``max_getstate_p99_ms``). For
+calls_per_s, gateway_cpu_us_per_call, client_cpu_us_per_call; ``max_getstate_p99_ms``).
+To say where a tail comes from, each client phase also gives the getState p99 of the reads
+that overlapped a move command of the mover (the gateway was planning it;
+``getstate_p99_during_moves_ms``, ``reads_during_moves``) and of the others
+(``getstate_p99_other_ms``), and how long the gateway's threads waited for a CPU while
+runnable (``gateway_runqueue_ms_per_s``, from /proc/PID/task/*/schedstat: the machine's
+share of the tail). For
 reference it first measures the machine's floor: a bare SCHED_FIFO thread that only sleeps
 to 1 ms deadlines (on shared virtual cores even that is late now and then).
 """
@@ -85,6 +91,7 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
     counts = [0] * threads
     errors = [0] * threads
     latencies: list[list[float]] = [[] for _ in range(threads)]
+    starts: list[list[float]] = [[] for _ in range(threads)]  # monotonic [s]
     connected = threading.Barrier(threads + 1)
     go = threading.Event()
     start_at = [0.0]
@@ -116,6 +123,7 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
                     t0 = time.perf_counter() - max(0.0, time.monotonic() - due)
                     stub.GetState(state, timeout=5.0)
                     latencies[k].append((time.perf_counter() - t0) * 1e6)
+                    starts[k].append(due)
                 counts[k] += 1
             except grpc.RpcError:
                 errors[k] += 1
@@ -136,7 +144,14 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
         t.join()
     cpu_s = time.process_time() - cpu0
     samples = [round(x, 1) for per_thread in latencies for x in per_thread]
-    out = {"calls": sum(counts), "errors": sum(errors), "cpu_s": cpu_s, "getstate_us": samples}
+    begun = [round(x, 5) for per_thread in starts for x in per_thread]
+    out = {
+        "calls": sum(counts),
+        "errors": sum(errors),
+        "cpu_s": cpu_s,
+        "getstate_us": samples,
+        "getstate_start_s": begun,
+    }
     print(json.dumps(out))
     return 0
 
@@ -269,6 +284,8 @@ class Mover:
         self.done = threading.Event()
         self.moves = 0
         self.refused: list[str] = []
+        #: (sent, answered) of every move command [s, monotonic]: the gateway planned then.
+        self.commands: list[tuple[float, float]] = []
         self.thread = threading.Thread(target=self._run, daemon=True)
 
     def start(self) -> None:
@@ -288,7 +305,9 @@ class Mover:
                     speed=pb.CartesianSpeed(translation=50.0, rotation=30.0),
                     accel=pb.CartesianAccel(translation=100.0, rotation=60.0),
                 )
+                sent = time.monotonic()
                 rid = self.a.MoveLinearCartesianRel(request, timeout=30.0).return_id
+                self.commands.append((sent, time.monotonic()))
             except grpc.RpcError as exc:
                 self.refused.append(f"{exc.code().name}")
                 time.sleep(0.1)
@@ -335,10 +354,44 @@ def cpu_seconds(pid: int | None) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def run_clients(daemon: Daemon, args: argparse.Namespace, hz: float) -> dict[str, Any]:
+def runqueue_seconds(pid: int | None) -> float:
+    """Time [s] the threads of a process have waited for a CPU while runnable so far
+    (``/proc/PID/task/*/schedstat``; 0 when unknown)."""
+    total = 0
+    for task in Path(f"/proc/{pid}/task").glob("*") if pid is not None else ():
+        try:
+            total += int((task / "schedstat").read_text().split()[1])
+        except (OSError, IndexError, ValueError):
+            continue
+    return total / 1e9
+
+
+def split_by_commands(
+    starts: np.ndarray, round_trips_us: np.ndarray, commands: list[tuple[float, float]]
+) -> dict[str, Any]:
+    """getState p99 [ms] of the round trips that overlap a move command (the gateway was
+    planning it) and of the others: says whether planning sets the tail."""
+    during = np.zeros(starts.size, dtype=bool)
+    ends = starts + round_trips_us / 1e6
+    for sent, answered in commands:
+        during |= (starts < answered) & (ends > sent)
+    out: dict[str, Any] = {"reads_during_moves": int(during.sum())}
+    for name, mask in (("during_moves", during), ("other", ~during)):
+        if mask.any():
+            out[f"getstate_p99_{name}_ms"] = round(
+                float(np.percentile(round_trips_us[mask], 99.0)) / 1e3, 2
+            )
+    return out
+
+
+def run_clients(
+    daemon: Daemon, args: argparse.Namespace, hz: float, mover: Mover | None = None
+) -> dict[str, Any]:
     """``--clients`` clients (``--procs`` processes) for ``--seconds``: as fast as they can
-    (``hz`` 0) or each ``hz`` calls a second. getState round trips, call rate, and the CPU
-    time per call of the gateway process and of the clients [us]."""
+    (``hz`` 0) or each ``hz`` calls a second. getState round trips (all; those overlapping a
+    move command of ``mover`` and the others), call rate, the CPU time per call of the
+    gateway process and of the clients [us], and how long the gateway's threads waited for
+    a CPU [ms per s]."""
     threads = -(-args.clients // args.procs)
     client_cmd = [sys.executable, __file__, "--client", daemon.address, "--hz", f"{hz:g}"]
     client_cmd += ["--threads", str(threads), "--seconds", str(args.seconds)]
@@ -359,13 +412,16 @@ def run_clients(daemon: Daemon, args: argparse.Namespace, hz: float) -> dict[str
         proc.stdin.flush()
     time.sleep(max(0.0, start_at - time.monotonic()))
     gateway_cpu = cpu_seconds(daemon.gateway_pid())
+    waited = runqueue_seconds(daemon.gateway_pid())
     c2 = daemon.cycles()
     time.sleep(max(0.0, start_at + args.seconds - time.monotonic()))
     c3 = daemon.cycles()
     gateway_cpu = cpu_seconds(daemon.gateway_pid()) - gateway_cpu
+    waited = runqueue_seconds(daemon.gateway_pid()) - waited
     calls = errors = 0
     client_cpu = 0.0
     getstate: list[float] = []
+    starts: list[float] = []
     for proc in clients:
         stdout, _ = proc.communicate(timeout=120.0)
         line = stdout.strip().splitlines()[-1] if stdout.strip() else "{}"
@@ -374,16 +430,20 @@ def run_clients(daemon: Daemon, args: argparse.Namespace, hz: float) -> dict[str
         errors += int(data.get("errors", 0))
         client_cpu += float(data.get("cpu_s", 0.0))
         getstate += data.get("getstate_us", [])
+        starts += data.get("getstate_start_s", [])
     out: dict[str, Any] = {"poll_hz": hz}
     if getstate:
         p50, p99 = np.percentile(getstate, [50.0, 99.0])
         out["getstate_p50_ms"] = round(float(p50) / 1e3, 2)
         out["getstate_p99_ms"] = round(float(p99) / 1e3, 2)
+        if mover is not None and len(starts) == len(getstate):
+            out.update(split_by_commands(np.array(starts), np.array(getstate), mover.commands))
     out["calls_per_s"] = round(calls / args.seconds, 1)
     out["errors"] = errors
     if calls:
         out["gateway_cpu_us_per_call"] = round(gateway_cpu / calls * 1e6, 1)
         out["client_cpu_us_per_call"] = round(client_cpu / calls * 1e6, 1)
+    out["gateway_runqueue_ms_per_s"] = round(waited / args.seconds * 1e3, 1)
     out["load"] = round(os.getloadavg()[0], 2)
     out["cycles"] = (c2, c3)
     out["clients"] = threads * args.procs
@@ -414,13 +474,13 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         c0 = daemon.cycles()
         time.sleep(args.seconds)
         c1 = daemon.cycles()
-        loaded = run_clients(daemon, args, 0.0)
+        loaded = run_clients(daemon, args, 0.0, mover)
         c2, c3 = loaded.pop("cycles")
         result["clients"] = loaded.pop("clients")
         result["saturated"] = loaded
         result["phase_cycles"] = [c0, c1, c2, c3]
         if args.poll_hz > 0:
-            paced = run_clients(daemon, args, args.poll_hz)
+            paced = run_clients(daemon, args, args.poll_hz, mover)
             del paced["cycles"], paced["clients"]
             result["paced"] = paced
     finally:
@@ -489,6 +549,13 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
                 f"CPU per call: gateway {g.get('gateway_cpu_us_per_call', 0):.0f} us, "
                 f"clients {g.get('client_cpu_us_per_call', 0):.0f} us; load {g['load']:.2f}"
             )
+            if "getstate_p99_during_moves_ms" in g:
+                print(
+                    f"{'':8s}   p99 of the {g['reads_during_moves']} reads during a move "
+                    f"command (planning) {g['getstate_p99_during_moves_ms']:.2f} ms, of the "
+                    f"others {g.get('getstate_p99_other_ms', 0):.2f} ms; the gateway's threads "
+                    f"waited {g['gateway_runqueue_ms_per_s']:.0f} ms/s for a CPU"
+                )
         print(
             f"{r['mode']:8s} p99 rise under load {r['p99_rise_us']:+.1f} us (limit "
             f"{MAX_P99_RISE_US:g}), late cycles {r['loaded']['late']}: {verdict}; "
