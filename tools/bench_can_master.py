@@ -33,6 +33,7 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -107,14 +108,19 @@ def stub_backend(robot_id: str = "smartpal5", rate: float = 500.0) -> CanBackend
     return backend
 
 
-def _phases(backend: CanBackend, command: np.ndarray, ns: dict[str, list[int]]) -> None:
-    """One cycle as read() + write() do it, each phase timed (the backend's own steps)."""
-    clock = time.perf_counter_ns
+def _phases(
+    backend: CanBackend,
+    command: np.ndarray,
+    ns: dict[str, list[int]],
+    clock: Callable[[], int] = time.perf_counter_ns,
+) -> None:
+    """One cycle as read() + write() do it, each phase timed with ``clock`` [ns] (the
+    backend's own steps; ``receive`` waits up to the backend's ``feedback_wait``)."""
     io, joints = backend.io, backend.joints
     t0 = clock()
     io.clear_fresh()
     now = backend._clock()
-    io.receive()
+    io.receive(now + backend.feedback_wait if backend.feedback_wait > 0 else None)
     t1 = clock()
     io.decode_states()
     joints.update(io.position, io.velocity, io.fresh, io.seen)
@@ -219,6 +225,7 @@ def measure_master_hil(
     assert isinstance(backend, CanBackend)
     reads: list[int] = []
     writes: list[int] = []
+    ns: dict[str, list[int]] = {name: [] for name in PHASES}
     try:
         backend.configure()
         backend.read()
@@ -233,7 +240,15 @@ def measure_master_hil(
             left = deadline - time.monotonic()
             if left > 0:
                 time.sleep(left)
-            command = JointCommand(base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase))
+            command_array = base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase)
+            if k % 2:  # every other cycle: phase by phase (the same steps)
+                with backend._lock:
+                    _phases(backend, command_array, ns, clock)
+                if k < skip:
+                    for values in ns.values():
+                        values.clear()
+                continue
+            command = JointCommand(command_array)
             t0 = clock()
             backend.read()
             t1 = clock()
@@ -260,6 +275,10 @@ def measure_master_hil(
         "cpu_cycle": _stats([r + w for r, w in zip(reads, writes, strict=True)]),
         "cpu_read": _stats(reads),
         "cpu_write": _stats(writes),
+        "cpu_phases_p50_us": {
+            name: round(float(np.percentile(v, 50)) / 1e3, 1) for name, v in ns.items()
+        },
+        "cpu_phases_mean_us": {name: round(float(np.mean(v)) / 1e3, 1) for name, v in ns.items()},
         "loadavg": [round(x, 2) for x in os.getloadavg()],
     }
 
@@ -285,6 +304,10 @@ def main() -> int:
             assert isinstance(figures, dict)
             print(f"{name:9s} thread CPU [µs]: p50 {figures['p50_us']:.1f}  "
                   f"p99 {figures['p99_us']:.1f}  mean {figures['mean_us']:.1f}")  # fmt: skip
+        phases = hil["cpu_phases_p50_us"]
+        assert isinstance(phases, dict)
+        print("phases, thread CPU p50 [µs]: "
+              + "  ".join(f"{k} {v:.1f}" for k, v in phases.items()))  # fmt: skip
         print(f"load average {hil['loadavg']} (2 cores, shared)")
         print(json.dumps(hil))
         return 0

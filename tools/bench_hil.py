@@ -44,6 +44,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 import numpy as np  # noqa: E402
 from bench_loop import script  # noqa: E402
+from overrun_trace import CycleTrace, print_overruns  # noqa: E402
 
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
@@ -55,6 +56,9 @@ from hal.can.backend import CanBackend  # noqa: E402
 from hal.can.setup import interpolation_period  # noqa: E402
 from hal.factory import make_hardware  # noqa: E402
 from hal.interface import JointCommand, JointState  # noqa: E402
+
+#: Seconds of cycles before the measured run (module doc).
+WARMUP_S = 1.0
 
 
 def main() -> int:
@@ -118,18 +122,23 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     master_wall: list[float] = []
     timing = {"cpu": 0.0, "wall": 0.0}
     read, write = hw.read, hw.write
+    trace = CycleTrace(int(rate * args.seconds) + 10)
 
     def timed_read() -> JointState:
         c, w = time.thread_time(), time.perf_counter()
         state = read()
         timing["cpu"], timing["wall"] = time.thread_time() - c, time.perf_counter() - w
+        missing = int(hw.io.fresh.size - np.count_nonzero(hw.io.fresh))
+        trace.read_done(timing["wall"], timing["cpu"], missing)
         return state
 
     def timed_write(command: JointCommand) -> None:
         c, w = time.thread_time(), time.perf_counter()
         write(command)
+        wall = time.perf_counter() - w
+        trace.write_done(wall)
         master_cpu.append(timing["cpu"] + time.thread_time() - c)
-        master_wall.append(timing["wall"] + time.perf_counter() - w)
+        master_wall.append(timing["wall"] + wall)
 
     hw.read = timed_read  # type: ignore[method-assign]
     hw.write = timed_write  # type: ignore[method-assign]
@@ -138,7 +147,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     # drives expect the cycle's heartbeat (a loop that stalls lets them time out and stop).
     hw.configure()
     mix = script(core)
-    done = {"motions": 0, "skipped": 0, "next": 0}
+    done = {"motions": 0, "skipped": 0, "next": 0, "servo_on": 0}
     ready: list[Motion] = []
     finished = threading.Event()
 
@@ -147,8 +156,10 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.planner_priority))
         while not finished.is_set():
             if not ready and core.state == CoreState.READY and core.motion is None:
+                trace.planning += 1
                 core.planning_kinematics()
                 motion = mix[done["next"] % len(mix)](core)
+                trace.planning += 1
                 done["next"] += 1
                 if motion is None:
                     done["skipped"] += 1
@@ -157,22 +168,34 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             time.sleep(0.001)
 
     def step(cycle: int, t: float) -> bool:
-        if cycle == 1:
+        trace.begin(cycle)
+        if cycle == 1 and not done["servo_on"]:
+            done["servo_on"] = 1
             core.servo_on()
         core.cycle()
         if ready and core.state == CoreState.READY and core.motion is None:
             core.start(ready.pop())
             done["motions"] += 1
+        trace.end()
         return core.state != CoreState.ALARM
 
     thread = threading.Thread(target=planner, daemon=True)
     thread.start()
+    # Warm-up: servo on (activate() blocks the loop for its enabling cycles, by design) and
+    # the first motion; then the measured run, in the same loop settings.
+    warm = FixedRateLoop(rate, step, realtime=not args.no_realtime)
+    warm.run(max_cycles=int(rate * WARMUP_S))
+    warmup = warm.stats.summary()
+    master_cpu.clear()
+    master_wall.clear()
+    trace.reset()
     bits0, sent0, recv0 = dict(hw.bits), dict(hw.frames_sent), dict(hw.frames_received)
     loop = FixedRateLoop(
         rate, step, realtime=not args.no_realtime,
         stats_capacity=int(rate * args.seconds) + 10,
     )  # fmt: skip
     child = getattr(getattr(hw, "emulator", None), "process", None)
+    status0 = emulator_status(hw)
     emulator_cpu0 = process_cpu(child.pid) if child is not None else None
     own_cpu0 = sum(os.times()[:2])
     start = time.monotonic()
@@ -187,7 +210,12 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     )
     finished.set()
     thread.join()
+    trace.close()
+    emulator_gc = emulator_status(hw, status0)
     stats = loop.stats.summary()
+    overruns = trace.overruns(
+        dt, hw.feedback_wait, loop.stats.latency_us(), loop.stats.compute_us()
+    )
     buses = {}
     for name, cfg in hw.profile.buses.items():
         frames = hw.frames_sent[name] - sent0[name] + hw.frames_received[name] - recv0[name]
@@ -198,9 +226,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         }
     hw.shutdown()
     load = os.getloadavg()
-    skip = min(int(rate), len(master_cpu) // 2)  # the first second: set-up, enabling
-    cpu = np.array(master_cpu[skip:] or [0.0]) * 1e6
-    wall = np.array(master_wall[skip:] or [0.0]) * 1e6
+    cpu = np.array(master_cpu or [0.0]) * 1e6
+    wall = np.array(master_wall or [0.0]) * 1e6
     master = {
         "master_cpu_us_p50": round(float(np.percentile(cpu, 50)), 1),
         "master_cpu_us_p99": round(float(np.percentile(cpu, 99)), 1),
@@ -227,6 +254,10 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             f"max {stats[f'{name}_max']:8.1f}"
         )
     print(
+        f"warm-up {WARMUP_S:g} s (servo on, first motion; not counted): overruns "
+        f"{warmup['overruns']}, compute max {warmup['compute_us_max']:.0f} us"
+    )
+    print(
         f"cycles {stats['cycles']}, deadline misses (overruns) {stats['overruns']}, "
         f"late by > half a period {stats['late_by_more_than_half_period']}, "
         f"lockstep timeouts {hw.lockstep_timeouts}"
@@ -246,6 +277,20 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     for name, figures in buses.items():
         print(f"bus {name:15s} {figures['frames_per_s']:8.1f} frames/s  "
               f"{figures['load_percent']:5.1f} % load")  # fmt: skip
+    gc_figures = {
+        "gc_collections": trace.gc_counts,
+        "gc_total_ms": round(trace.gc_total * 1e3, 1),
+        "gc_longest_ms": round(trace.gc_longest * 1e3, 2),
+        "gc_longest_generation": trace.gc_longest_generation,
+    }
+    print(f"garbage collections in this process: {trace.gc_counts} (generations 0/1/2), "
+          f"{gc_figures['gc_total_ms']:.1f} ms in all, longest {gc_figures['gc_longest_ms']:.2f} "
+          f"ms (generation {trace.gc_longest_generation})")  # fmt: skip
+    if emulator_gc:
+        print(f"garbage collections in the emulator process: {emulator_gc['gc_collections']}, "
+              f"{emulator_gc['gc_total_ms']:.1f} ms in all, longest "
+              f"{emulator_gc['gc_longest_ms']:.2f} ms (over its whole life)")  # fmt: skip
+    causes = print_overruns(overruns)
     for name, found in (("alarms", alarms), ("warnings", warnings)):
         if found:
             print(f"{name}: " + "; ".join(f"0x{a.code:03X} {a.description}" for a in found))
@@ -264,9 +309,34 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "warnings": len(warnings),
         "lockstep_timeouts": hw.lockstep_timeouts,
         "buses": buses,
+        **gc_figures,
+        "emulator_gc": emulator_gc,
+        "overrun_causes": causes,
+        "warmup_overruns": warmup["overruns"],
+        "warmup_compute_us_max": warmup["compute_us_max"],
+        "overrun_cycles": overruns[:100],
         **stats,
     }
     return result
+
+
+def emulator_status(hw: CanBackend, since: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The emulator process's garbage collections (its ``status``): counts per generation
+    and total [ms] since ``since`` (an earlier answer), longest [ms] over its life; {} for
+    an emulator in this process."""
+    command = getattr(hw.emulator, "command", None)
+    if command is None:
+        return {}
+    words = dict(w.split("=", 1) for w in command("status").split()[1:] if "=" in w)
+    if "gc" not in words:
+        return {}
+    counts = [int(n) for n in words["gc"].split("/")]
+    total = float(words["gc_ms"])
+    if since:
+        counts = [a - b for a, b in zip(counts, since["gc_collections"], strict=True)]
+        total -= since["gc_total_ms"]
+    return {"gc_collections": counts, "gc_total_ms": round(total, 1),
+            "gc_longest_ms": float(words["gc_max_ms"])}  # fmt: skip
 
 
 def process_cpu(pid: int) -> float | None:
