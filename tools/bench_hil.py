@@ -15,9 +15,12 @@ misses (overruns), alarms, frames per second and load per bus (worst-case bit le
 frames actually sent and received), the master's own share per cycle (``read()`` +
 ``write()``: thread CPU time, i.e. encode, send, receive, decode, supervision without the
 waits; and wall time, waits included), the CPU time per cycle of the emulator process and
-of this process (all threads), the load average, and as the last line a JSON object. Alarms
-(FAULT type: the loop stops) and warnings (e.g. a motion that ended off its target) are
-counted apart. ``--drives`` runs another drive profile (e.g.
+of this process (all threads), the load average, the garbage collections of both processes,
+one row per overrun with what it was made of and its cause (:mod:`overrun_trace`: gc, TPDO
+wait, off CPU, late wake, own CPU), and as the last line a JSON object. The first second
+(servo on: ``activate()`` blocks the loop for its enabling cycles, by design; the first
+motion) is a warm-up, reported apart and not counted. Alarms (FAULT type: the loop stops)
+and warnings (e.g. a motion that ended off its target) are counted apart. ``--drives`` runs another drive profile (e.g.
 ``config/robots/smartpal5/drives-1khz.yaml``, a bus split for 1 kHz). ``--rates`` runs each
 rate in turn (a fresh emulator each), prints a summary line per rate and the highest rate
 without overruns and alarms; the JSON line then holds every run (``runs``) and
