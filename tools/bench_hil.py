@@ -3,13 +3,14 @@
 
 Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,800,625,500]
                                  [--seconds 60] [--emulator process|thread] [--drives PATH]
+                                 [--planner process|thread] [--gc slack|automatic]
                                  [--planner-priority 50] [--no-realtime]
 
 ``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By default
 the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`): the
 master runs as on real buses, no lockstep, supervision on its own timing; ``--emulator
 thread`` puts it in this process in lockstep (one GIL for both). The loop runs the motion mix
-of tools/bench_loop.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
+of tools/loop_mix.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
 back). Prints cycle compute time (p50/p99/max, read + QP + write), wake latency, deadline
 misses (overruns), alarms, frames per second and load per bus (worst-case bit lengths of the
 frames actually sent and received), the master's own share per cycle (``read()`` +
@@ -20,14 +21,17 @@ one row per overrun with what it was made of and its cause (:mod:`overrun_trace`
 wait, off CPU, late wake, own CPU), and as the last line a JSON object. The first second
 (servo on: ``activate()`` blocks the loop for its enabling cycles, by design; the first
 motion) is a warm-up, reported apart and not counted. Alarms (FAULT type: the loop stops)
-and warnings (e.g. a motion that ended off its target) are counted apart. ``--drives`` runs another drive profile (e.g.
-``config/robots/smartpal5/drives-1khz.yaml``, a bus split for 1 kHz). ``--rates`` runs each
-rate in turn (a fresh emulator each), prints a summary line per rate and the highest rate
-without overruns and alarms; the JSON line then holds every run (``runs``) and
-``highest_clean_rate_hz``. ``--planner-priority`` runs the planning thread under SCHED_FIFO
-(below the loop's 80 and the emulator's 70): a planner that the host deschedules while it
-holds the GIL stalls the real-time loop for as long (the daemon's planner runs at normal
-priority: the default 0 measures that).
+and warnings (e.g. a motion that ended off its target) are counted apart. As in the daemon,
+the garbage collector runs in the loop's slack (``--gc automatic``: CPython's own) and the
+hand line's reachability check, the only planning that costs milliseconds, runs in a worker
+process (``--planner thread``: in the planning thread, sharing the loop's GIL). ``--drives``
+runs another drive profile (e.g. ``config/robots/smartpal5/drives-1khz.yaml``, a bus split
+for 1 kHz). ``--rates`` runs each rate in turn (a fresh emulator each), prints a summary line
+per rate and the highest rate without overruns and alarms; the JSON line then holds every
+run (``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs the planning
+thread under SCHED_FIFO (below the loop's 80 and the emulator's 70): a planner that the host
+deschedules while it holds the GIL stalls the real-time loop for as long. The planning
+thread sleeps until the loop finds the robot idle (no polling).
 """
 
 from __future__ import annotations
@@ -46,9 +50,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
 import numpy as np  # noqa: E402
-from bench_loop import script  # noqa: E402
+from loop_mix import WorkerLineCheck, segments  # noqa: E402
 from overrun_trace import CycleTrace, print_overruns  # noqa: E402
 
+from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
 from controller.model.alarms import AlarmType  # noqa: E402
@@ -78,6 +83,13 @@ def main() -> int:
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
     parser.add_argument("--planner-priority", type=int, default=0,
                         help="SCHED_FIFO priority of the planning thread (0: normal)")  # fmt: skip
+    parser.add_argument("--planner", choices=("process", "thread"), default="process",
+                        help="where the hand line's reachability check runs: a worker "
+                             "process, as the daemon's gateway plans (default), or the "
+                             "planning thread of this process")  # fmt: skip
+    parser.add_argument("--gc", choices=("slack", "automatic"), default="slack",
+                        help="garbage collection in the loop's slack as the daemon does "
+                             "(default), or CPython's automatic collection")  # fmt: skip
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
     args = parser.parse_args()
@@ -149,15 +161,23 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     # Configure now; servo on from inside the running loop, as the daemon does: enabled
     # drives expect the cycle's heartbeat (a loop that stalls lets them time out and stop).
     hw.configure()
-    mix = script(core)
+    line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
+    mix = [make for _, make in segments(core, line_check)]
     done = {"motions": 0, "skipped": 0, "next": 0, "servo_on": 0}
     ready: list[Motion] = []
     finished = threading.Event()
+    wanted = threading.Event()  # the robot is idle: the planner builds the next motion
 
     def planner() -> None:
         if args.planner_priority:  # SCHED_FIFO: not descheduled while it holds the GIL
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.planner_priority))
         while not finished.is_set():
+            # Woken by the loop when the robot is idle: a thread of the loop's process that
+            # polled would take the GIL a thousand times a second, each time a chance to be
+            # descheduled holding it while the loop waits.
+            if not wanted.wait(0.1):
+                continue
+            wanted.clear()
             if not ready and core.state == CoreState.READY and core.motion is None:
                 trace.planning += 1
                 core.planning_kinematics()
@@ -168,7 +188,6 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
                     done["skipped"] += 1
                 else:
                     ready.append(motion)
-            time.sleep(0.001)
 
     def step(cycle: int, t: float) -> bool:
         trace.begin(cycle)
@@ -176,9 +195,12 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             done["servo_on"] = 1
             core.servo_on()
         core.cycle()
-        if ready and core.state == CoreState.READY and core.motion is None:
-            core.start(ready.pop())
-            done["motions"] += 1
+        if core.state == CoreState.READY and core.motion is None:
+            if ready:
+                core.start(ready.pop())
+                done["motions"] += 1
+            elif not wanted.is_set():
+                wanted.set()
         trace.end()
         return core.state != CoreState.ALARM
 
@@ -186,7 +208,10 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     thread.start()
     # Warm-up: servo on (activate() blocks the loop for its enabling cycles, by design) and
     # the first motion; then the measured run, in the same loop settings.
-    warm = FixedRateLoop(rate, step, realtime=not args.no_realtime)
+    collector = SlackCollector() if args.gc == "slack" else None
+    if collector is not None:
+        collector.start()
+    warm = FixedRateLoop(rate, step, realtime=not args.no_realtime, slack=collector)
     warm.run(max_cycles=int(rate * WARMUP_S))
     warmup = warm.stats.summary()
     master_cpu.clear()
@@ -195,8 +220,9 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     bits0, sent0, recv0 = dict(hw.bits), dict(hw.frames_sent), dict(hw.frames_received)
     loop = FixedRateLoop(
         rate, step, realtime=not args.no_realtime,
-        stats_capacity=int(rate * args.seconds) + 10,
+        stats_capacity=int(rate * args.seconds) + 10, slack=collector,
     )  # fmt: skip
+    slack0 = list(collector.collections) if collector is not None else [0, 0]
     child = getattr(getattr(hw, "emulator", None), "process", None)
     status0 = emulator_status(hw)
     emulator_cpu0 = process_cpu(child.pid) if child is not None else None
@@ -211,14 +237,12 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         if emulator_cpu0 is not None and emulator_cpu1 is not None
         else None
     )
-    finished.set()
-    thread.join()
+    if collector is not None:
+        collector.stop()
     trace.close()
+    # The loop stopped: so did the master's heartbeat. Shut the drives down first (before
+    # they time out and fault), then the planner.
     emulator_gc = emulator_status(hw, status0)
-    stats = loop.stats.summary()
-    overruns = trace.overruns(
-        dt, hw.feedback_wait, loop.stats.latency_us(), loop.stats.compute_us()
-    )
     buses = {}
     for name, cfg in hw.profile.buses.items():
         frames = hw.frames_sent[name] - sent0[name] + hw.frames_received[name] - recv0[name]
@@ -228,6 +252,14 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             "load_percent": round(100.0 * bits / elapsed / cfg.bitrate, 2),
         }
     hw.shutdown()
+    finished.set()
+    thread.join()
+    if line_check is not None:
+        line_check.close()
+    stats = loop.stats.summary()
+    overruns = trace.overruns(
+        dt, hw.feedback_wait, loop.stats.latency_us(), loop.stats.compute_us()
+    )
     load = os.getloadavg()
     cpu = np.array(master_cpu or [0.0]) * 1e6
     wall = np.array(master_wall or [0.0]) * 1e6
@@ -281,11 +313,20 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         print(f"bus {name:15s} {figures['frames_per_s']:8.1f} frames/s  "
               f"{figures['load_percent']:5.1f} % load")  # fmt: skip
     gc_figures = {
+        "gc": args.gc,
+        "gc_in_slack": (
+            [a - b for a, b in zip(collector.collections, slack0, strict=True)]
+            if collector is not None
+            else None
+        ),
         "gc_collections": trace.gc_counts,
         "gc_total_ms": round(trace.gc_total * 1e3, 1),
         "gc_longest_ms": round(trace.gc_longest * 1e3, 2),
         "gc_longest_generation": trace.gc_longest_generation,
     }
+    if collector is not None:
+        print(f"garbage collection in the loop's slack (--gc slack, as the daemon): "
+              f"{gc_figures['gc_in_slack']} young/middle collections run by the loop")  # fmt: skip
     print(f"garbage collections in this process: {trace.gc_counts} (generations 0/1/2), "
           f"{gc_figures['gc_total_ms']:.1f} ms in all, longest {gc_figures['gc_longest_ms']:.2f} "
           f"ms (generation {trace.gc_longest_generation})")  # fmt: skip
@@ -302,6 +343,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "rate_hz": rate,
         "emulator": args.emulator,
         "emulator_priority": priority if args.emulator == "process" else None,
+        "planner": args.planner,
         "drives": args.drives,
         "load_average": [round(x, 2) for x in load],
         **master,
