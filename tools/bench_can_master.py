@@ -14,16 +14,20 @@ The command is a slow sine on every joint (counts change every cycle). Reported 
 whole cycle (``read()`` + ``write()``, as the control loop calls them) p50/p99/max/mean, and
 the median (and mean) of each phase from a second, instrumented pass. Usage::
 
-    python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000]
+    python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000] [--paced]
     python tools/bench_can_master.py --hil [--seconds 10] [--drives PATH]
+
+``--paced``: one cycle per period, sleeping in between as a control loop does (back to back
+by default): on this VM a cycle after a sleep costs about twice as much (cold caches).
 
 ``--hil``: the same backend on ``unix`` buses against the drive emulator process, as
 ``--hal hil`` builds it (:mod:`hal.hil`), paced at the rate (the emulator needs its period),
 emulator SCHED_FIFO 70 and this thread 80 where allowed. Reported: the thread CPU time
 [µs] of ``read()``, ``write()`` and both per cycle (the transport's system calls included,
-the waits not): what the master costs on a transport between processes, beside the stub's
-figure. Prints figures and a final JSON line. :func:`measure_master` and
-:func:`measure_master_hil` are the measurements as functions (e.g. for tools/bench_hil.py).
+the waits not), and the same per phase on every other cycle: what the master costs on a
+transport between processes, beside the stub's figure. Prints figures and a final JSON
+line. :func:`measure_master` and :func:`measure_master_hil` are the measurements as
+functions (e.g. for tools/bench_hil.py).
 """
 
 from __future__ import annotations
@@ -143,14 +147,30 @@ def _phases(
 
 
 def measure_master(
-    robot_id: str = "smartpal5", rate: float = 500.0, cycles: int = 20000, warmup: int = 500
+    robot_id: str = "smartpal5",
+    rate: float = 500.0,
+    cycles: int = 20000,
+    warmup: int = 500,
+    paced: bool = False,
 ) -> dict[str, object]:
     """The CAN master's per-cycle cost [µs] for ``robot_id`` at ``rate`` [Hz], measured alone
     on stub buses (module doc): ``cycle`` (read + write) statistics, per-phase p50 and mean, drive
     and bus counts, load average. Runs ``warmup`` + ``cycles`` cycles twice, back to back
-    (no sleeping: the cost, not the rate; the backend's clock moves one period per cycle)."""
+    (no sleeping: the cost, not the rate; the backend's clock moves one period per cycle), or
+    with ``paced`` one cycle per period as a control loop runs them (sleeping in between:
+    what a cycle costs with the caches as the sleep left them)."""
     backend = stub_backend(robot_id, rate)
-    step = backend._clock.step  # type: ignore[attr-defined]
+    tick = backend._clock.step  # type: ignore[attr-defined]
+    deadline = [time.monotonic()]
+
+    def step() -> None:
+        tick()
+        if paced:
+            deadline[0] += backend.dt
+            left = deadline[0] - time.monotonic()
+            if left > 0:
+                time.sleep(left)
+
     try:
         base = backend.read().position.copy()
         phase = np.linspace(0.0, 2.0 * np.pi, len(base), endpoint=False)
@@ -183,6 +203,7 @@ def measure_master(
             "drives": len(backend.drive_names),
             "buses": len(backend.profile.buses),
             "cycles": cycles,
+            "paced": paced,
             "cycle": _stats(total),
             "phases_p50_us": {
                 name: round(float(np.percentile(v, 50)) / 1e3, 1) for name, v in ns.items()
@@ -289,6 +310,8 @@ def main() -> int:
     parser.add_argument("--rate", type=float, default=500.0, help="[Hz] loop rate (the period)")
     parser.add_argument("--cycles", type=int, default=20000)
     parser.add_argument("--hil", action="store_true", help="unix buses, emulator process")
+    parser.add_argument("--paced", action="store_true",
+                        help="stub buses: one cycle per period (sleeping in between)")  # fmt: skip
     parser.add_argument("--seconds", type=float, default=10.0, help="--hil: run time [s]")
     parser.add_argument("--drives", help="--hil: another drive profile")
     args = parser.parse_args()
@@ -311,13 +334,14 @@ def main() -> int:
         print(f"load average {hil['loadavg']} (2 cores, shared)")
         print(json.dumps(hil))
         return 0
-    result = measure_master(args.robot, args.rate, args.cycles)
+    result = measure_master(args.robot, args.rate, args.cycles, paced=args.paced)
     cycle = result["cycle"]
     phases = result["phases_p50_us"]
     assert isinstance(cycle, dict) and isinstance(phases, dict)
     print(
         f"CAN master alone: {args.robot}, {result['drives']} drives on {result['buses']} buses, "
-        f"{args.rate:g} Hz period, {args.cycles} cycles, stub buses "
+        f"{args.rate:g} Hz period, {args.cycles} cycles "
+        f"{'paced (one per period)' if args.paced else 'back to back'}, stub buses "
         f"({result['frames_per_cycle']} frames per cycle)"
     )
     print(
