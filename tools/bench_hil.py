@@ -133,8 +133,6 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         options["drives"] = args.drives
     hw = make_hardware("hil", robot, dt, options)
     assert isinstance(hw, CanBackend)
-    master_cpu: list[float] = []
-    master_wall: list[float] = []
     timing = {"cpu": 0.0, "wall": 0.0}
     read, write = hw.read, hw.write
     trace = CycleTrace(int(rate * args.seconds) + 10)
@@ -150,10 +148,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     def timed_write(command: JointCommand) -> None:
         c, w = time.thread_time(), time.perf_counter()
         write(command)
-        wall = time.perf_counter() - w
-        trace.write_done(wall)
-        master_cpu.append(timing["cpu"] + time.thread_time() - c)
-        master_wall.append(timing["wall"] + wall)
+        trace.write_done(time.perf_counter() - w, time.thread_time() - c)
 
     hw.read = timed_read  # type: ignore[method-assign]
     hw.write = timed_write  # type: ignore[method-assign]
@@ -214,8 +209,6 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     warm = FixedRateLoop(rate, step, realtime=not args.no_realtime, slack=collector)
     warm.run(max_cycles=int(rate * WARMUP_S))
     warmup = warm.stats.summary()
-    master_cpu.clear()
-    master_wall.clear()
     trace.reset()
     bits0, sent0, recv0 = dict(hw.bits), dict(hw.frames_sent), dict(hw.frames_received)
     loop = FixedRateLoop(
@@ -261,8 +254,9 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         dt, hw.feedback_wait, loop.stats.latency_us(), loop.stats.compute_us()
     )
     load = os.getloadavg()
-    cpu = np.array(master_cpu or [0.0]) * 1e6
-    wall = np.array(master_wall or [0.0]) * 1e6
+    measured = max(1, min(int(stats["cycles"]), trace.capacity))
+    cpu = trace.master_cpu[:measured] * 1e6
+    wall = trace.master_wall[:measured] * 1e6
     master = {
         "master_cpu_us_p50": round(float(np.percentile(cpu, 50)), 1),
         "master_cpu_us_p99": round(float(np.percentile(cpu, 99)), 1),

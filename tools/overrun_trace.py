@@ -4,7 +4,8 @@
 the master's ``read()`` (wall time, the part of it spent waiting for TPDOs, drives whose
 TPDO1 had not come) and ``write()`` (wall time), the garbage collections of this process
 (any thread: while the step ran, and between the previous step's end and this one's start,
-where they delay the wake-up) and whether the planning thread was planning. After the run,
+where they delay the wake-up) and whether the planning thread was planning. Nothing is
+allocated per cycle (a growing list would add page faults of its own to the figures). After the run,
 :meth:`CycleTrace.overruns` joins these with the loop's wake latency and compute time and
 names, per overrun, the largest part of it:
 
@@ -43,6 +44,10 @@ class CycleTrace:
         self.gc_in = np.zeros(capacity)
         self.gc_before = np.zeros(capacity)
         self.planning_during = np.zeros(capacity, dtype=bool)
+        #: The master's ``read()`` + ``write()`` per cycle: thread CPU and wall time [s].
+        self.master_cpu = np.zeros(capacity)
+        self.master_wall = np.zeros(capacity)
+        self._read_cpu = 0.0
         #: Odd while the planner plans (it adds 1 before and after a plan).
         self.planning = 0
         self._cycle = -1
@@ -71,6 +76,8 @@ class CycleTrace:
             self.gc_in,
             self.gc_before,
             self.planning_during,
+            self.master_cpu,
+            self.master_wall,
         ):
             array.fill(0)
         self.gc_total = self.gc_longest = self._gc_end = 0.0
@@ -111,11 +118,15 @@ class CycleTrace:
             self.read_wall[k] = wall
             self.read_wait[k] = max(0.0, wall - cpu)
             self.missing[k] = missing
+            self._read_cpu = cpu
 
-    def write_done(self, wall: float) -> None:
+    def write_done(self, wall: float, cpu: float) -> None:
+        """``write()`` took ``wall`` [s], ``cpu`` [s] of them on the CPU."""
         k = self._cycle
         if k >= 0:
             self.write_wall[k] = wall
+            self.master_cpu[k] = self._read_cpu + cpu
+            self.master_wall[k] = self.read_wall[k] + wall
 
     def end(self) -> None:
         """The step ends."""
