@@ -170,8 +170,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             # Woken by the loop when the robot is idle: a thread of the loop's process that
             # polled would take the GIL a thousand times a second, each time a chance to be
             # descheduled holding it while the loop waits.
-            if not wanted.wait(0.1):
-                continue
+            wanted.wait()
             wanted.clear()
             if not ready and core.state == CoreState.READY and core.motion is None:
                 trace.planning += 1
@@ -246,6 +245,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         }
     hw.shutdown()
     finished.set()
+    wanted.set()
     thread.join()
     if line_check is not None:
         line_check.close()
