@@ -18,7 +18,8 @@ the median (and mean) of each phase from a second, instrumented pass. Usage::
     python tools/bench_can_master.py --hil [--seconds 10] [--drives PATH]
 
 ``--paced``: one cycle per period, sleeping in between as a control loop does (back to back
-by default): on this VM a cycle after a sleep costs about twice as much (cold caches).
+by default): on this VM a cycle after a sleep costs more (caches cold; SmartPal V 171 µs
+against 136 back to back in the same minutes, docs/emulator.md "Cost").
 
 ``--hil``: the same backend on ``unix`` buses against the drive emulator process, as
 ``--hal hil`` builds it (:mod:`hal.hil`), paced at the rate (the emulator needs its period),
