@@ -21,6 +21,13 @@ def test_measure_master_reports_cycle_and_phases():
     assert isinstance(result["frames_per_cycle"], float) and result["frames_per_cycle"] >= 55
 
 
+def test_measure_master_paced_runs_one_cycle_per_period():
+    result = measure_master("pa10", 1000.0, cycles=10, warmup=2, paced=True)
+    assert result["paced"] is True and result["cycles"] == 10
+    phases = result["phases_p50_us"]
+    assert isinstance(phases, dict) and set(phases) == set(PHASES)
+
+
 def test_measure_master_hil_reports_the_master_on_unix_buses():
     """The master against the emulator process (unix buses, hold_pdos): read/write CPU."""
     result = measure_master_hil("pa10", 200.0, seconds=0.2, warmup=0.2)
@@ -29,3 +36,5 @@ def test_measure_master_hil_reports_the_master_on_unix_buses():
     for name in ("cpu_cycle", "cpu_read", "cpu_write"):
         figures = result[name]
         assert isinstance(figures, dict) and figures["p50_us"] > 0
+    phases = result["cpu_phases_p50_us"]  # every other cycle, phase by phase
+    assert isinstance(phases, dict) and set(phases) == set(PHASES)

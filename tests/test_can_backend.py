@@ -98,6 +98,29 @@ def test_deactivate_quick_stops_then_disables(hil: Hil):
     assert hil.backend.state is HardwareState.ACTIVE
 
 
+def test_the_heartbeat_thread_sleeps_while_active_and_wakes_outside(hil: Hil):
+    """Outside ACTIVE the heartbeat thread keeps the drives' consumers fed; in ACTIVE it
+    blocks on the idle event (no wake-up taking the loop's GIL), until the backend leaves
+    ACTIVE by deactivate() or a fault."""
+    backend = hil.backend
+    hil.configure()
+    thread = backend._keepalive
+    assert thread is not None and thread.is_alive() and backend._idle.is_set()
+    hil.cycle()
+    backend.activate()
+    assert not backend._idle.is_set()
+    backend.deactivate()
+    assert backend._idle.is_set()
+    backend.activate()
+    assert not backend._idle.is_set()
+    hil.emulator.inject("emcy", "r_arm_j1")
+    for _ in range(3):
+        hil.cycle()
+    assert backend.state is HardwareState.FAULT and backend._idle.is_set()
+    backend.shutdown()
+    assert not thread.is_alive()
+
+
 def test_refused_enable_is_0x407_naming_the_drive(hil: Hil):
     hil.configure()
     hil.cycle()

@@ -57,7 +57,10 @@ def test_cross_process_nmt_sync_tpdo_heartbeat_and_sigterm(interface: str, tmp_p
         process.stdin.write("inject heartbeat_loss J1\nstatus\n")
         process.stdin.flush()
         assert process.stdout.readline().startswith("ok inject heartbeat_loss J1")
-        assert "heartbeat_loss:J1" in process.stdout.readline()
+        status = process.stdout.readline()
+        assert "heartbeat_loss:J1" in status
+        fields = dict(word.split("=", 1) for word in status.split()[1:] if "=" in word)
+        assert len(fields["gc"].split("/")) == 3 and float(fields["gc_max_ms"]) >= 0.0
     finally:
         if bus is not None:
             bus.shutdown()

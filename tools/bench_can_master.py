@@ -14,16 +14,21 @@ The command is a slow sine on every joint (counts change every cycle). Reported 
 whole cycle (``read()`` + ``write()``, as the control loop calls them) p50/p99/max/mean, and
 the median (and mean) of each phase from a second, instrumented pass. Usage::
 
-    python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000]
+    python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000] [--paced]
     python tools/bench_can_master.py --hil [--seconds 10] [--drives PATH]
+
+``--paced``: one cycle per period, sleeping in between as a control loop does (back to back
+by default): on this VM a cycle after a sleep costs more (caches cold; SmartPal V 171 µs
+against 136 back to back in the same minutes, docs/emulator.md "Cost").
 
 ``--hil``: the same backend on ``unix`` buses against the drive emulator process, as
 ``--hal hil`` builds it (:mod:`hal.hil`), paced at the rate (the emulator needs its period),
 emulator SCHED_FIFO 70 and this thread 80 where allowed. Reported: the thread CPU time
 [µs] of ``read()``, ``write()`` and both per cycle (the transport's system calls included,
-the waits not): what the master costs on a transport between processes, beside the stub's
-figure. Prints figures and a final JSON line. :func:`measure_master` and
-:func:`measure_master_hil` are the measurements as functions (e.g. for tools/bench_hil.py).
+the waits not), and the same per phase on every other cycle: what the master costs on a
+transport between processes, beside the stub's figure. Prints figures and a final JSON
+line. :func:`measure_master` and :func:`measure_master_hil` are the measurements as
+functions (e.g. for tools/bench_hil.py).
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -107,14 +113,19 @@ def stub_backend(robot_id: str = "smartpal5", rate: float = 500.0) -> CanBackend
     return backend
 
 
-def _phases(backend: CanBackend, command: np.ndarray, ns: dict[str, list[int]]) -> None:
-    """One cycle as read() + write() do it, each phase timed (the backend's own steps)."""
-    clock = time.perf_counter_ns
+def _phases(
+    backend: CanBackend,
+    command: np.ndarray,
+    ns: dict[str, list[int]],
+    clock: Callable[[], int] = time.perf_counter_ns,
+) -> None:
+    """One cycle as read() + write() do it, each phase timed with ``clock`` [ns] (the
+    backend's own steps; ``receive`` waits up to the backend's ``feedback_wait``)."""
     io, joints = backend.io, backend.joints
     t0 = clock()
     io.clear_fresh()
     now = backend._clock()
-    io.receive()
+    io.receive(now + backend.feedback_wait if backend.feedback_wait > 0 else None)
     t1 = clock()
     io.decode_states()
     joints.update(io.position, io.velocity, io.fresh, io.seen)
@@ -137,14 +148,30 @@ def _phases(backend: CanBackend, command: np.ndarray, ns: dict[str, list[int]]) 
 
 
 def measure_master(
-    robot_id: str = "smartpal5", rate: float = 500.0, cycles: int = 20000, warmup: int = 500
+    robot_id: str = "smartpal5",
+    rate: float = 500.0,
+    cycles: int = 20000,
+    warmup: int = 500,
+    paced: bool = False,
 ) -> dict[str, object]:
     """The CAN master's per-cycle cost [µs] for ``robot_id`` at ``rate`` [Hz], measured alone
     on stub buses (module doc): ``cycle`` (read + write) statistics, per-phase p50 and mean, drive
     and bus counts, load average. Runs ``warmup`` + ``cycles`` cycles twice, back to back
-    (no sleeping: the cost, not the rate; the backend's clock moves one period per cycle)."""
+    (no sleeping: the cost, not the rate; the backend's clock moves one period per cycle), or
+    with ``paced`` one cycle per period as a control loop runs them (sleeping in between:
+    what a cycle costs with the caches as the sleep left them)."""
     backend = stub_backend(robot_id, rate)
-    step = backend._clock.step  # type: ignore[attr-defined]
+    tick = backend._clock.step  # type: ignore[attr-defined]
+    deadline = [time.monotonic()]
+
+    def step() -> None:
+        tick()
+        if paced:
+            deadline[0] += backend.dt
+            left = deadline[0] - time.monotonic()
+            if left > 0:
+                time.sleep(left)
+
     try:
         base = backend.read().position.copy()
         phase = np.linspace(0.0, 2.0 * np.pi, len(base), endpoint=False)
@@ -177,6 +204,7 @@ def measure_master(
             "drives": len(backend.drive_names),
             "buses": len(backend.profile.buses),
             "cycles": cycles,
+            "paced": paced,
             "cycle": _stats(total),
             "phases_p50_us": {
                 name: round(float(np.percentile(v, 50)) / 1e3, 1) for name, v in ns.items()
@@ -219,6 +247,7 @@ def measure_master_hil(
     assert isinstance(backend, CanBackend)
     reads: list[int] = []
     writes: list[int] = []
+    ns: dict[str, list[int]] = {name: [] for name in PHASES}
     try:
         backend.configure()
         backend.read()
@@ -233,7 +262,15 @@ def measure_master_hil(
             left = deadline - time.monotonic()
             if left > 0:
                 time.sleep(left)
-            command = JointCommand(base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase))
+            command_array = base + AMPLITUDE * np.sin(2.0 * np.pi * 0.5 * k * dt + phase)
+            if k % 2:  # every other cycle: phase by phase (the same steps)
+                with backend._lock:
+                    _phases(backend, command_array, ns, clock)
+                if k < skip:
+                    for values in ns.values():
+                        values.clear()
+                continue
+            command = JointCommand(command_array)
             t0 = clock()
             backend.read()
             t1 = clock()
@@ -260,6 +297,10 @@ def measure_master_hil(
         "cpu_cycle": _stats([r + w for r, w in zip(reads, writes, strict=True)]),
         "cpu_read": _stats(reads),
         "cpu_write": _stats(writes),
+        "cpu_phases_p50_us": {
+            name: round(float(np.percentile(v, 50)) / 1e3, 1) for name, v in ns.items()
+        },
+        "cpu_phases_mean_us": {name: round(float(np.mean(v)) / 1e3, 1) for name, v in ns.items()},
         "loadavg": [round(x, 2) for x in os.getloadavg()],
     }
 
@@ -270,6 +311,8 @@ def main() -> int:
     parser.add_argument("--rate", type=float, default=500.0, help="[Hz] loop rate (the period)")
     parser.add_argument("--cycles", type=int, default=20000)
     parser.add_argument("--hil", action="store_true", help="unix buses, emulator process")
+    parser.add_argument("--paced", action="store_true",
+                        help="stub buses: one cycle per period (sleeping in between)")  # fmt: skip
     parser.add_argument("--seconds", type=float, default=10.0, help="--hil: run time [s]")
     parser.add_argument("--drives", help="--hil: another drive profile")
     args = parser.parse_args()
@@ -285,16 +328,21 @@ def main() -> int:
             assert isinstance(figures, dict)
             print(f"{name:9s} thread CPU [µs]: p50 {figures['p50_us']:.1f}  "
                   f"p99 {figures['p99_us']:.1f}  mean {figures['mean_us']:.1f}")  # fmt: skip
+        phases = hil["cpu_phases_p50_us"]
+        assert isinstance(phases, dict)
+        print("phases, thread CPU p50 [µs]: "
+              + "  ".join(f"{k} {v:.1f}" for k, v in phases.items()))  # fmt: skip
         print(f"load average {hil['loadavg']} (2 cores, shared)")
         print(json.dumps(hil))
         return 0
-    result = measure_master(args.robot, args.rate, args.cycles)
+    result = measure_master(args.robot, args.rate, args.cycles, paced=args.paced)
     cycle = result["cycle"]
     phases = result["phases_p50_us"]
     assert isinstance(cycle, dict) and isinstance(phases, dict)
     print(
         f"CAN master alone: {args.robot}, {result['drives']} drives on {result['buses']} buses, "
-        f"{args.rate:g} Hz period, {args.cycles} cycles, stub buses "
+        f"{args.rate:g} Hz period, {args.cycles} cycles "
+        f"{'paced (one per period)' if args.paced else 'back to back'}, stub buses "
         f"({result['frames_per_cycle']} frames per cycle)"
     )
     print(

@@ -3,28 +3,35 @@
 
 Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,800,625,500]
                                  [--seconds 60] [--emulator process|thread] [--drives PATH]
+                                 [--planner process|thread] [--gc slack|automatic]
                                  [--planner-priority 50] [--no-realtime]
 
 ``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By default
 the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`): the
 master runs as on real buses, no lockstep, supervision on its own timing; ``--emulator
 thread`` puts it in this process in lockstep (one GIL for both). The loop runs the motion mix
-of tools/bench_loop.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
+of tools/loop_mix.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
 back). Prints cycle compute time (p50/p99/max, read + QP + write), wake latency, deadline
 misses (overruns), alarms, frames per second and load per bus (worst-case bit lengths of the
 frames actually sent and received), the master's own share per cycle (``read()`` +
 ``write()``: thread CPU time, i.e. encode, send, receive, decode, supervision without the
 waits; and wall time, waits included), the CPU time per cycle of the emulator process and
-of this process (all threads), the load average, and as the last line a JSON object. Alarms
-(FAULT type: the loop stops) and warnings (e.g. a motion that ended off its target) are
-counted apart. ``--drives`` runs another drive profile (e.g.
-``config/robots/smartpal5/drives-1khz.yaml``, a bus split for 1 kHz). ``--rates`` runs each
-rate in turn (a fresh emulator each), prints a summary line per rate and the highest rate
-without overruns and alarms; the JSON line then holds every run (``runs``) and
-``highest_clean_rate_hz``. ``--planner-priority`` runs the planning thread under SCHED_FIFO
-(below the loop's 80 and the emulator's 70): a planner that the host deschedules while it
-holds the GIL stalls the real-time loop for as long (the daemon's planner runs at normal
-priority: the default 0 measures that).
+of this process (all threads), the load average, the garbage collections of both processes,
+one row per overrun with what it was made of and its cause (:mod:`overrun_trace`: gc, TPDO
+wait, off CPU, late wake, own CPU), and as the last line a JSON object. The first second
+(servo on: ``activate()`` blocks the loop for its enabling cycles, by design; the first
+motion) is a warm-up, reported apart and not counted. Alarms (FAULT type: the loop stops)
+and warnings (e.g. a motion that ended off its target) are counted apart. As in the daemon,
+the garbage collector runs in the loop's slack (``--gc automatic``: CPython's own) and the
+hand line's reachability check, the only planning that costs milliseconds, runs in a worker
+process (``--planner thread``: in the planning thread, sharing the loop's GIL). ``--drives``
+runs another drive profile (e.g. ``config/robots/smartpal5/drives-1khz.yaml``, a bus split
+for 1 kHz). ``--rates`` runs each rate in turn (a fresh emulator each), prints a summary line
+per rate and the highest rate without overruns and alarms; the JSON line then holds every
+run (``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs the planning
+thread under SCHED_FIFO (below the loop's 80 and the emulator's 70): a planner that the host
+deschedules while it holds the GIL stalls the real-time loop for as long. The planning
+thread sleeps until the loop finds the robot idle (no polling).
 """
 
 from __future__ import annotations
@@ -43,8 +50,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
 import numpy as np  # noqa: E402
-from bench_loop import script  # noqa: E402
+from loop_mix import WorkerLineCheck, segments  # noqa: E402
+from overrun_trace import CycleTrace, print_overruns  # noqa: E402
 
+from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
 from controller.model.alarms import AlarmType  # noqa: E402
@@ -55,6 +64,9 @@ from hal.can.backend import CanBackend  # noqa: E402
 from hal.can.setup import interpolation_period  # noqa: E402
 from hal.factory import make_hardware  # noqa: E402
 from hal.interface import JointCommand, JointState  # noqa: E402
+
+#: Seconds of cycles before the measured run (module doc).
+WARMUP_S = 1.0
 
 
 def main() -> int:
@@ -71,6 +83,13 @@ def main() -> int:
     parser.add_argument("--no-realtime", action="store_true", help="skip SCHED_FIFO etc.")
     parser.add_argument("--planner-priority", type=int, default=0,
                         help="SCHED_FIFO priority of the planning thread (0: normal)")  # fmt: skip
+    parser.add_argument("--planner", choices=("process", "thread"), default="process",
+                        help="where the hand line's reachability check runs: a worker "
+                             "process, as the daemon's gateway plans (default), or the "
+                             "planning thread of this process")  # fmt: skip
+    parser.add_argument("--gc", choices=("slack", "automatic"), default="slack",
+                        help="garbage collection in the loop's slack as the daemon does "
+                             "(default), or CPython's automatic collection")  # fmt: skip
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
     args = parser.parse_args()
@@ -114,22 +133,22 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         options["drives"] = args.drives
     hw = make_hardware("hil", robot, dt, options)
     assert isinstance(hw, CanBackend)
-    master_cpu: list[float] = []
-    master_wall: list[float] = []
     timing = {"cpu": 0.0, "wall": 0.0}
     read, write = hw.read, hw.write
+    trace = CycleTrace(int(rate * args.seconds) + 10)
 
     def timed_read() -> JointState:
         c, w = time.thread_time(), time.perf_counter()
         state = read()
         timing["cpu"], timing["wall"] = time.thread_time() - c, time.perf_counter() - w
+        missing = int(hw.io.fresh.size - np.count_nonzero(hw.io.fresh))
+        trace.read_done(timing["wall"], timing["cpu"], missing)
         return state
 
     def timed_write(command: JointCommand) -> None:
         c, w = time.thread_time(), time.perf_counter()
         write(command)
-        master_cpu.append(timing["cpu"] + time.thread_time() - c)
-        master_wall.append(timing["wall"] + time.perf_counter() - w)
+        trace.write_done(time.perf_counter() - w, time.thread_time() - c)
 
     hw.read = timed_read  # type: ignore[method-assign]
     hw.write = timed_write  # type: ignore[method-assign]
@@ -137,42 +156,67 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     # Configure now; servo on from inside the running loop, as the daemon does: enabled
     # drives expect the cycle's heartbeat (a loop that stalls lets them time out and stop).
     hw.configure()
-    mix = script(core)
-    done = {"motions": 0, "skipped": 0, "next": 0}
+    line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
+    mix = [make for _, make in segments(core, line_check)]
+    done = {"motions": 0, "skipped": 0, "next": 0, "servo_on": 0}
     ready: list[Motion] = []
     finished = threading.Event()
+    wanted = threading.Event()  # the robot is idle: the planner builds the next motion
 
     def planner() -> None:
         if args.planner_priority:  # SCHED_FIFO: not descheduled while it holds the GIL
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.planner_priority))
         while not finished.is_set():
+            # Woken by the loop when the robot is idle: a thread of the loop's process that
+            # polled would take the GIL a thousand times a second, each time a chance to be
+            # descheduled holding it while the loop waits.
+            wanted.wait()
+            wanted.clear()
             if not ready and core.state == CoreState.READY and core.motion is None:
+                trace.planning += 1
                 core.planning_kinematics()
                 motion = mix[done["next"] % len(mix)](core)
+                trace.planning += 1
                 done["next"] += 1
                 if motion is None:
                     done["skipped"] += 1
                 else:
                     ready.append(motion)
-            time.sleep(0.001)
 
     def step(cycle: int, t: float) -> bool:
-        if cycle == 1:
+        trace.begin(cycle)
+        if cycle == 1 and not done["servo_on"]:
+            done["servo_on"] = 1
             core.servo_on()
         core.cycle()
-        if ready and core.state == CoreState.READY and core.motion is None:
-            core.start(ready.pop())
-            done["motions"] += 1
+        if core.state == CoreState.READY and core.motion is None:
+            if ready:
+                core.start(ready.pop())
+                done["motions"] += 1
+            elif not wanted.is_set():
+                wanted.set()
+        trace.end()
         return core.state != CoreState.ALARM
 
     thread = threading.Thread(target=planner, daemon=True)
     thread.start()
+    # Warm-up: servo on (activate() blocks the loop for its enabling cycles, by design) and
+    # the first motion; then the measured run, in the same loop settings.
+    collector = SlackCollector() if args.gc == "slack" else None
+    if collector is not None:
+        collector.start()
+    warm = FixedRateLoop(rate, step, realtime=not args.no_realtime, slack=collector)
+    warm.run(max_cycles=int(rate * WARMUP_S))
+    warmup = warm.stats.summary()
+    trace.reset()
     bits0, sent0, recv0 = dict(hw.bits), dict(hw.frames_sent), dict(hw.frames_received)
     loop = FixedRateLoop(
         rate, step, realtime=not args.no_realtime,
-        stats_capacity=int(rate * args.seconds) + 10,
+        stats_capacity=int(rate * args.seconds) + 10, slack=collector,
     )  # fmt: skip
+    slack0 = list(collector.collections) if collector is not None else [0, 0]
     child = getattr(getattr(hw, "emulator", None), "process", None)
+    status0 = emulator_status(hw)
     emulator_cpu0 = process_cpu(child.pid) if child is not None else None
     own_cpu0 = sum(os.times()[:2])
     start = time.monotonic()
@@ -185,9 +229,12 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         if emulator_cpu0 is not None and emulator_cpu1 is not None
         else None
     )
-    finished.set()
-    thread.join()
-    stats = loop.stats.summary()
+    if collector is not None:
+        collector.stop()
+    trace.close()
+    # The loop stopped: so did the master's heartbeat. Shut the drives down first (before
+    # they time out and fault), then the planner.
+    emulator_gc = emulator_status(hw, status0)
     buses = {}
     for name, cfg in hw.profile.buses.items():
         frames = hw.frames_sent[name] - sent0[name] + hw.frames_received[name] - recv0[name]
@@ -197,10 +244,19 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             "load_percent": round(100.0 * bits / elapsed / cfg.bitrate, 2),
         }
     hw.shutdown()
+    finished.set()
+    wanted.set()
+    thread.join()
+    if line_check is not None:
+        line_check.close()
+    stats = loop.stats.summary()
+    overruns = trace.overruns(
+        dt, hw.feedback_wait, loop.stats.latency_us(), loop.stats.compute_us()
+    )
     load = os.getloadavg()
-    skip = min(int(rate), len(master_cpu) // 2)  # the first second: set-up, enabling
-    cpu = np.array(master_cpu[skip:] or [0.0]) * 1e6
-    wall = np.array(master_wall[skip:] or [0.0]) * 1e6
+    measured = max(1, min(int(stats["cycles"]), trace.capacity))
+    cpu = trace.master_cpu[:measured] * 1e6
+    wall = trace.master_wall[:measured] * 1e6
     master = {
         "master_cpu_us_p50": round(float(np.percentile(cpu, 50)), 1),
         "master_cpu_us_p99": round(float(np.percentile(cpu, 99)), 1),
@@ -227,6 +283,10 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             f"max {stats[f'{name}_max']:8.1f}"
         )
     print(
+        f"warm-up {WARMUP_S:g} s (servo on, first motion; not counted): overruns "
+        f"{warmup['overruns']}, compute max {warmup['compute_us_max']:.0f} us"
+    )
+    print(
         f"cycles {stats['cycles']}, deadline misses (overruns) {stats['overruns']}, "
         f"late by > half a period {stats['late_by_more_than_half_period']}, "
         f"lockstep timeouts {hw.lockstep_timeouts}"
@@ -246,6 +306,29 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     for name, figures in buses.items():
         print(f"bus {name:15s} {figures['frames_per_s']:8.1f} frames/s  "
               f"{figures['load_percent']:5.1f} % load")  # fmt: skip
+    gc_figures = {
+        "gc": args.gc,
+        "gc_in_slack": (
+            [a - b for a, b in zip(collector.collections, slack0, strict=True)]
+            if collector is not None
+            else None
+        ),
+        "gc_collections": trace.gc_counts,
+        "gc_total_ms": round(trace.gc_total * 1e3, 1),
+        "gc_longest_ms": round(trace.gc_longest * 1e3, 2),
+        "gc_longest_generation": trace.gc_longest_generation,
+    }
+    if collector is not None:
+        print(f"garbage collection in the loop's slack (--gc slack, as the daemon): "
+              f"{gc_figures['gc_in_slack']} young/middle collections run by the loop")  # fmt: skip
+    print(f"garbage collections in this process: {trace.gc_counts} (generations 0/1/2), "
+          f"{gc_figures['gc_total_ms']:.1f} ms in all, longest {gc_figures['gc_longest_ms']:.2f} "
+          f"ms (generation {trace.gc_longest_generation})")  # fmt: skip
+    if emulator_gc:
+        print(f"garbage collections in the emulator process: {emulator_gc['gc_collections']}, "
+              f"{emulator_gc['gc_total_ms']:.1f} ms in all, longest "
+              f"{emulator_gc['gc_longest_ms']:.2f} ms (over its whole life)")  # fmt: skip
+    causes = print_overruns(overruns)
     for name, found in (("alarms", alarms), ("warnings", warnings)):
         if found:
             print(f"{name}: " + "; ".join(f"0x{a.code:03X} {a.description}" for a in found))
@@ -254,6 +337,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "rate_hz": rate,
         "emulator": args.emulator,
         "emulator_priority": priority if args.emulator == "process" else None,
+        "planner": args.planner,
         "drives": args.drives,
         "load_average": [round(x, 2) for x in load],
         **master,
@@ -264,9 +348,34 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "warnings": len(warnings),
         "lockstep_timeouts": hw.lockstep_timeouts,
         "buses": buses,
+        **gc_figures,
+        "emulator_gc": emulator_gc,
+        "overrun_causes": causes,
+        "warmup_overruns": warmup["overruns"],
+        "warmup_compute_us_max": warmup["compute_us_max"],
+        "overrun_cycles": overruns[:100],
         **stats,
     }
     return result
+
+
+def emulator_status(hw: CanBackend, since: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The emulator process's garbage collections (its ``status``): counts per generation
+    and total [ms] since ``since`` (an earlier answer), longest [ms] over its life; {} for
+    an emulator in this process."""
+    command = getattr(hw.emulator, "command", None)
+    if command is None:
+        return {}
+    words = dict(w.split("=", 1) for w in command("status").split()[1:] if "=" in w)
+    if "gc" not in words:
+        return {}
+    counts = [int(n) for n in words["gc"].split("/")]
+    total = float(words["gc_ms"])
+    if since:
+        counts = [a - b for a, b in zip(counts, since["gc_collections"], strict=True)]
+        total -= since["gc_total_ms"]
+    return {"gc_collections": counts, "gc_total_ms": round(total, 1),
+            "gc_longest_ms": float(words["gc_max_ms"])}  # fmt: skip
 
 
 def process_cpu(pid: int) -> float | None:

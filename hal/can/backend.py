@@ -169,6 +169,10 @@ class CanBackend(HardwareInterface):
         self._lock = threading.RLock()
         self._keepalive: threading.Thread | None = None
         self._keepalive_stop = threading.Event()
+        #: Set while not ACTIVE: the heartbeat thread sleeps on it (no wake-up while the
+        #: loop runs; each would take the GIL the loop may be waiting for).
+        self._idle = threading.Event()
+        self._idle.set()
 
     # ----------------------------------------------------------------------------- queries
     @property
@@ -327,6 +331,7 @@ class CanBackend(HardwareInterface):
             self._hold()
             self._supervisor.outside[:] = 0
             self._state = HardwareState.ACTIVE
+            self._idle.clear()
 
     def deactivate(self) -> None:
         """Quick stop, then disable, from the next cycle on. ACTIVE -> INACTIVE."""
@@ -334,6 +339,7 @@ class CanBackend(HardwareInterface):
             self.io.set_goal(Goal.OFF, keep_reset=True)
             if self._state is HardwareState.ACTIVE:
                 self._state = HardwareState.INACTIVE
+                self._idle.set()
 
     def reset_faults(self) -> bool:
         """Fault reset (bit-7 edge); True once everything is healthy again (INACTIVE)."""
@@ -373,6 +379,7 @@ class CanBackend(HardwareInterface):
     def shutdown(self) -> None:
         """Quick stop every drive and close the buses. Any state -> FINALIZED."""
         self._keepalive_stop.set()
+        self._idle.set()
         if self._keepalive is not None:
             self._keepalive.join(timeout=1.0)
             self._keepalive = None
@@ -397,9 +404,11 @@ class CanBackend(HardwareInterface):
     def _keep_alive(self) -> None:
         """Master heartbeat while the drives are not enabled and no cycle sends it (between
         configure() and the loop's first cycle, in a paused loop). Never in ACTIVE: a stalled
-        loop must let the enabled drives time out and stop."""
+        loop must let the enabled drives time out and stop; the thread then sleeps until the
+        backend leaves ACTIVE, without waking (a thread of the loop's process that wakes
+        takes the GIL, and preempted while holding it, makes the loop wait)."""
         period = self.profile.heartbeat.master_producer_ms / 1e3
-        while not self._keepalive_stop.wait(period / 2):
+        while self._idle.wait() and not self._keepalive_stop.wait(period / 2):
             if self._state is HardwareState.ACTIVE or not self._lock.acquire(blocking=False):
                 continue
             try:
@@ -508,6 +517,7 @@ class CanBackend(HardwareInterface):
         self.io.set_goal(Goal.OFF, keep_reset=True)
         if self._state is not HardwareState.UNCONFIGURED:
             self._state = HardwareState.FAULT
+            self._idle.set()
 
 
 def default_joint_names(robot: Robot) -> Sequence[str]:

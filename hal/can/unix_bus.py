@@ -58,6 +58,7 @@ log = logging.getLogger(__name__)
 
 INTERFACE = "unix"
 _HEADER = struct.Struct("<IBBBxd")
+_pack = _HEADER.pack
 #: Largest record [bytes] (one ``send``): held frames beyond it go in another record.
 MAX_RECORD = 4096
 #: COB-IDs held with ``hold_pdos`` (TPDO1 0x180 .. RPDO4 0x57F, predefined connection set).
@@ -183,6 +184,7 @@ class UnixBus(can.BusABC):
         if len(os.fsencode(self.path)) > _PATH_MAX:
             raise can.CanInitializationError(f"unix bus: socket path too long: {self.path}")
         self._listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        self._listener_fd = self._listener.fileno()
         self._listener.setblocking(False)
         self._epoll = select.epoll()
         self._peers: dict[int, socket.socket] = {}
@@ -210,6 +212,22 @@ class UnixBus(can.BusABC):
         """Send ``msg`` to every other participant (never blocks; see the module doc), or
         hold it (``hold_pdos``). Participants that joined since the last receive get it from
         the next one on."""
+        if not (
+            msg.is_extended_id or msg.is_remote_frame or msg.is_error_frame or msg.is_fd
+            or msg.bitrate_switch or msg.error_state_indicator or self.receive_own_messages
+        ):  # fmt: skip
+            # A classic 11-bit data frame: the usual one, inline (a master's cycle sends dozens).
+            data = msg.data
+            can_id = msg.arbitration_id
+            frame = _pack(can_id, 0, msg.dlc, len(data), msg.timestamp or time.time()) + data
+            if self.hold_pdos and PDO_FIRST <= can_id <= PDO_LAST:
+                if self._held_size + len(frame) > MAX_RECORD:
+                    self.flush()
+                self._held.append(frame)
+                self._held_size += len(frame)
+            else:
+                self._send_record(frame)
+            return
         frame = encode(msg)
         if self.receive_own_messages:
             self._pending.append(decode(frame, self._channel))
@@ -230,6 +248,9 @@ class UnixBus(can.BusABC):
             return pending.popleft(), False
         if self._held:  # before waiting for an answer, the question goes out
             self.flush()
+        if timeout == 0.0:  # a poll (a master draining its buses every cycle)
+            self._messages(self._fill(0.0))
+            return (pending.popleft() if pending else None), False
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             self._messages(self._fill(0.0))
@@ -335,7 +356,7 @@ class UnixBus(can.BusABC):
             raise can.CanOperationError(f"{self.channel_info}: {exc}") from exc
         if not events:
             return []
-        listener = self._listener.fileno()
+        listener = self._listener_fd
         ready = [fd for fd, _ in events if fd != listener]
         if len(ready) < len(events):
             ready += self._accept()  # a new peer may have sent already
@@ -360,7 +381,8 @@ class UnixBus(can.BusABC):
         """Decode ``records`` into :attr:`_pending` (malformed ones logged and dropped)."""
         pending, channel, header = self._pending, self._channel, _HEADER.size
         unpack, make = _HEADER.unpack_from, can.Message
-        for record in records:
+        for received in records:
+            record = bytearray(received)  # slices of it are what can.Message keeps (no copy)
             size, start = len(record), 0
             while start + header <= size:  # classic 11-bit data frames: the usual ones
                 can_id, flags, dlc, length, stamp = unpack(record, start)
@@ -373,7 +395,9 @@ class UnixBus(can.BusABC):
             if start == size:
                 continue
             try:  # the rest of the record: other kinds of frames, or malformed
-                pending.extend(message(*fields, channel) for fields in frames(record[start:]))
+                pending.extend(
+                    message(*fields, channel) for fields in frames(bytes(record[start:]))
+                )
             except ValueError as exc:
                 log.warning("%s: %s (dropped)", self.channel_info, exc)
 

@@ -19,7 +19,10 @@ drives=<n>``, then answers to commands. stdin (optional): one command per line,
 * ``inject <kind> <joint> [key=value ...]`` (kinds of :mod:`hal.emulator.faults`; integer
   values may be hex, e.g. ``code=0x2310``; ``bus_off`` may take ``bus=<name>`` for joint
   ``-``),
-* ``clear [<kind>|-] [<joint>]``, ``status``;
+* ``clear [<kind>|-] [<joint>]``,
+* ``status``: ``ok cycles=<rounds> sim_time=<s> gc=<n0>/<n1>/<n2> gc_ms=<total>
+  gc_max_ms=<longest> faults=<kind:target ...>`` (the process's garbage collections per
+  generation; what was built before the buses started is frozen out of them);
 
 each answered on stdout by one line ``ok ...`` or ``error ...``. stderr: logfmt log lines.
 SIGTERM and SIGINT close the buses and exit 0; a bus that cannot be opened exits 2. SIGUSR1
@@ -30,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import faulthandler
+import gc
 import logging
 import signal
 import sys
@@ -119,6 +123,40 @@ def _serve_address(text: str) -> tuple[str, int]:
     return host, int(port)
 
 
+class GcWatch:
+    """Garbage collections of this process: count per generation, time in all and the
+    longest [s] (the ``status`` answer). Collections hold the GIL: one in the middle of a
+    SYNC delays that bus's TPDOs for as long."""
+
+    def __init__(self) -> None:
+        self.counts = [0, 0, 0]
+        self.total = 0.0
+        self.longest = 0.0
+        self._start = 0.0
+
+    def install(self) -> None:
+        if self._on_gc not in gc.callbacks:
+            gc.callbacks.append(self._on_gc)
+
+    def _on_gc(self, phase: str, info: dict[str, Any]) -> None:
+        if phase == "start":
+            self._start = time.perf_counter()
+            return
+        took = time.perf_counter() - self._start
+        self.counts[int(info.get("generation", 0))] += 1
+        self.total += took
+        self.longest = max(self.longest, took)
+
+    def text(self) -> str:
+        """``gc=N0/N1/N2 gc_ms=TOTAL gc_max_ms=LONGEST``."""
+        counts = "/".join(str(n) for n in self.counts)
+        return f"gc={counts} gc_ms={self.total * 1e3:.1f} gc_max_ms={self.longest * 1e3:.2f}"
+
+
+#: This process's collections (module doc of :class:`GcWatch`).
+GC_WATCH = GcWatch()
+
+
 def _parse_value(text: str) -> Any:
     lowered = text.lower()
     if lowered in ("true", "false"):
@@ -152,7 +190,8 @@ def handle_command(emulator: DriveEmulator, line: str) -> str:
             return f"ok clear {emulator.clear(kind, joint)}"
         if verb == "status" and not rest:
             faults = " ".join(f"{f.kind.value}:{f.target}" for f in emulator.active_faults)
-            return f"ok cycles={emulator.cycles} sim_time={emulator.sim_time:.3f} faults={faults}"
+            return (f"ok cycles={emulator.cycles} sim_time={emulator.sim_time:.3f} "
+                    f"{GC_WATCH.text()} faults={faults}")  # fmt: skip
     except ValueError as exc:
         return f"error {exc}"
     return f"error unknown command {line.strip()!r}: inject KIND JOINT [k=v ...] | clear | status"
@@ -210,6 +249,11 @@ def _run(args: argparse.Namespace) -> int:
         if serve is not None:
             virtual = {bus: channel for bus, (_, channel) in emulator.channels.items()}
             bridge = BusBridge(virtual, *serve)
+        emulator.open()
+        # Everything built so far lives as long as the process: out of the collector's
+        # passes, which then scan only what the SYNCs allocate (short, and fewer of them).
+        gc.freeze()
+        GC_WATCH.install()
         emulator.start()
         if bridge is not None:
             bridge.start()
