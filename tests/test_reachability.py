@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -12,7 +13,12 @@ from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
-from controller.motion.reachability import MAX_SAMPLES, POSITION_TOL, ReachabilityChecker
+from controller.motion.reachability import (
+    MAX_SAMPLES,
+    POSITION_TOL,
+    SAMPLE_STEP,
+    ReachabilityChecker,
+)
 from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
 
@@ -310,3 +316,75 @@ def test_a_path_with_too_many_samples_is_refused_without_sampling_it():
     for far in (1e9, 0.02 * MAX_SAMPLES):
         reason = check(kin, line_from_hand(kin, (far, 0.0, 0.0)))
         assert reason is not None and "too long to check" in reason
+
+
+#: Cartesian speed [m/s] at which the continuity test asks the checked path to be followable.
+LINE_SPEED = 0.1
+#: 100 mm along each axis from home.
+HOME_LINES = [
+    (robot_id, axis, sign)
+    for robot_id in ("smartpal5", "pa10", "rh")
+    for axis in range(3)
+    for sign in (1.0, -1.0)
+]
+
+
+@pytest.mark.parametrize(
+    ("robot_id", "axis", "sign"),
+    HOME_LINES,
+    ids=[f"{r}-{'+-'[g < 0]}{'xyz'[a]}" for r, a, g in HOME_LINES],
+)
+def test_the_checked_joint_path_is_continuous(robot_id: str, axis: int, sign: float):
+    """Consecutive samples of the checked path (the configurations the loop's null space
+    follows) are no farther apart than each joint can go at its speed limit in the time the
+    hand takes between them at 0.1 m/s. Was (SmartPal V, +z): the check's minimum-norm steps
+    ran r_arm_j6 into its limit and the arm swung r_arm_j2 by 11 deg within 1 cm."""
+    kin = at_home(robot_id)
+    dp = np.zeros(3)
+    dp[axis] = 0.1 * sign
+    path = line_from_hand(kin, dp)
+    checker = ReachabilityChecker(kin)
+    assert check(kin, path, ELBOW, checker=checker) is None
+    q = np.array(checker.path_q)
+    s = np.array(checker.path_s)
+    dt = np.diff(s) * path.length / LINE_SPEED
+    over = np.abs(np.diff(q, axis=0)) / (checker.v_max * dt[:, None])
+    k, j = np.unravel_index(int(np.argmax(over)), over.shape)
+    assert over[k, j] <= 1.0, (
+        f"{kin.joint_names[j]} moves {math.degrees(abs(q[k + 1, j] - q[k, j])):.1f} deg "
+        f"between s = {s[k]:.3f} and {s[k + 1]:.3f}"
+    )
+    # The sample spacing the check promises, and the end on the target.
+    assert np.diff(s).max() * path.length <= SAMPLE_STEP + 1e-12
+    np.testing.assert_allclose(s[-1], 1.0)
+
+
+def test_fast_stretches_are_sampled_densely_and_a_jump_stays_a_jump():
+    """Between two samples a joint moving more than the jump bound is sampled again in halves:
+    a continuous motion ends up in steps under the bound, a jump (a change of IK branch)
+    does not shrink and is named with its size."""
+    kin = at_home("smartpal5")
+    checker = ReachabilityChecker(kin)
+    j = kin.index("r_arm_j2")
+    q0 = kin.q.copy()
+
+    def at(value: float) -> np.ndarray:
+        q = q0.copy()
+        q[j] += value
+        return q
+
+    def smooth(q: np.ndarray, s: float) -> tuple[np.ndarray, str | None]:
+        return at(math.radians(20.0) * s), None
+
+    def flip(q: np.ndarray, s: float) -> tuple[np.ndarray, str | None]:
+        return at(math.radians(20.0) if s > 0.3 else 0.0), None
+
+    steps = checker._segment(q0, 0.0, 1.0, smooth)
+    qs = [q0] + [q for _, q, _ in steps]
+    assert all(checker._jump(a, b) is None for a, b in itertools.pairwise(qs))
+    assert len(steps) >= 4  # 20 deg in steps of at most 5 (the bound)
+    steps = checker._segment(q0, 0.0, 1.0, flip)
+    qs = [q0] + [q for _, q, _ in steps]
+    jumps = [checker._jump(a, b) for a, b in itertools.pairwise(qs)]
+    assert jumps.count(None) == len(jumps) - 1
+    assert ("r_arm_j2", "20.0 deg") in jumps

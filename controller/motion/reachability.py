@@ -19,6 +19,7 @@ Runs on its own :class:`~controller.model.kinematics.Kinematics` (the loop owns 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -33,6 +34,7 @@ from controller.model.redundant_axes import (
 )
 from controller.motion.motions import IKSetup
 from controller.motion.paths import ArcPath, LinePath, VectorPath
+from controller.motion.posture import limit_weights, null_step
 from controller.qp.constraints import BRAKING_SHARE, AxisRows
 from controller.qp.constraints.axes import HOLD_MIN_ELBOW_OFFSET
 from controller.qp.solver import ProxQPSolver
@@ -64,6 +66,27 @@ ROTATION_SCALE = 0.3
 #: and vehicle joints riding their limits are made up for by the arm.
 LIMIT_MARGIN = math.radians(0.2)
 LIMIT_MARGIN_M = 0.2e-3
+#: Null-space objective (:mod:`controller.motion.posture`): a sample is solved once its
+#: posture step is below NULL_TOL [rad or m], or NULL_ITER iterations after its pose was.
+NULL_TOL = 1e-3
+NULL_ITER = 8
+#: Share of the posture step taken per iteration, and its largest joint step [rad or m]:
+#: the full step overshoots where the weights grow (a joint nearing its limit) and the
+#: iteration alternates between two configurations.
+NULL_GAIN = 0.5
+MAX_NULL_STEP = 0.05
+#: Continuity: a joint may move at most this much [rad] / [m] between consecutive samples;
+#: a larger step is split in halves, up to MAX_SPLITS times (1 cm down to 0.3 mm); a step
+#: still larger then is a jump between branches of the IK, which the loop cannot follow.
+JUMP_ANGLE = math.radians(5.0)
+JUMP_LENGTH = 0.02
+MAX_SPLITS = 5
+#: A sample's IK starts from the previous one's solution moved on along the path, unless
+#: that comes closer than this [rad or m] to a limit.
+PREDICT_MARGIN = math.radians(2.0)
+#: A path that jumps between branches is checked again with the posture passing through
+#: the configuration after the jump, at most this many times.
+ANCHORS = 2
 #: Weight of the elbow row [m/rad] (the pose rows weigh 1) and its accepted residual [rad].
 ELBOW_WEIGHT = 0.1
 ELBOW_TOL = math.radians(0.1)
@@ -86,6 +109,10 @@ class ReachabilityChecker:
         self.path_s: list[float] = []
         self.path_q: list[np.ndarray] = []
         specs_all = specs
+        self._jump_bound = np.array(
+            [JUMP_ANGLE if sp.kind == "revolute" else JUMP_LENGTH for sp in specs]
+        )
+        self._coarse_error = ""
         self.v_max = np.array([sp.velocity for sp in specs_all])
         self.a_max = np.array([sp.acceleration for sp in specs_all])
 
@@ -106,7 +133,7 @@ class ReachabilityChecker:
         too_long = _too_long(path, SAMPLE_STEP, SAMPLE_ANGLE)
         if too_long is not None:
             return too_long
-        q, held = self._start(live, setup, hold)
+        q0, held = self._start(live, setup, hold)
         samples = path.samples(SAMPLE_STEP, SAMPLE_ANGLE)
         axis = elbow_axis(side) if elbow is not None and self.kin.has_elbow(side) else None
         if axis is not None and elbow is not None:
@@ -114,25 +141,91 @@ class ReachabilityChecker:
             n = max(len(samples), math.ceil(swing / SAMPLE_ANGLE) + 1)
             samples = [i / (n - 1) for i in range(n)]
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
+        rigid = self._redundancy(side, hold, setup.frozen, held_axes) <= 0
+        # The posture the null space is drawn to moves from the start toward the end
+        # configuration (found first in coarse steps) along the path, so the null-space
+        # motion a joint limit asks for is spread over the path instead of swung through
+        # where the limit comes near (there the posture nearest the start changes branch).
+        q1 = None if axis is not None else self._coarse(q0, side, path, setup, hold, held)
+        anchors = [(0.0, q0), (1.0, q0 if q1 is None else q1)]
+        for attempt in range(ANCHORS + 1):
+            self.kin.update(q0)
+            why, jump = self._follow(
+                q0, side, path, samples, setup, hold, held, held_axes, rigid, anchors, axis, elbow
+            )
+            if jump is None or attempt == ANCHORS:
+                return why
+            # A change of branch where the posture's nearest configuration swings over:
+            # again, with the posture passing through the far side of the swing, so the
+            # null-space motion starts early and the path stays continuous.
+            anchors.append(jump)
+            anchors.sort(key=lambda anchor: anchor[0])
+        return why  # pragma: no cover (the loop returns)
+
+    def _follow(
+        self,
+        q: np.ndarray,
+        side: RightLeft,
+        path: LinePath | ArcPath,
+        samples: Sequence[float],
+        setup: IKSetup,
+        hold: RightLeft | None,
+        held: pin.SE3 | None,
+        held_axes: list[RedundantAxis],
+        rigid: bool,
+        anchors: list[tuple[float, np.ndarray]],
+        axis: RedundantAxis | None,
+        elbow: VectorPath | None,
+    ) -> tuple[str | None, tuple[float, np.ndarray] | None]:
+        """One pass of :meth:`check` from ``q`` along ``samples`` of ``path``, the null space
+        drawn to the posture through ``anchors`` (path parameter, configuration; linear in
+        between). Returns why the path is refused (None: it is not) and, when the reason is
+        a jump between branches, the path parameter and configuration after the first one."""
         self.last_q = q
         self.path_s = [float(samples[0])]
         self.path_q = [q.copy()]
-        #: The first sample that takes a joint close to its limit (reported if nothing
-        #: else is wrong with the path).
+        grid = np.array([anchor[0] for anchor in anchors])
+        poses = np.array([anchor[1] for anchor in anchors])
+        #: The first sample that takes a joint close to its limit, and the first jump
+        #: between branches (reported if nothing else is wrong with the path).
         near: tuple[str, str, str] | None = None
-        rigid = self._redundancy(side, hold, setup.frozen, held_axes) <= 0
-        for s in samples[1:]:
-            target = path.at(s)
+        jumped: tuple[str, float, np.ndarray] | None = None
+
+        def solve(q_from: np.ndarray, s: float) -> tuple[np.ndarray, str | None]:
             goal = None
             if axis is not None and elbow is not None:
                 goal = (axis, float(elbow.at(s)[0]))
-            q, err = self._solve(q, side, target, setup.frozen, hold, held, goal)
-            self.last_q = q
-            self.path_s.append(float(s))
-            self.path_q.append(q.copy())
-            where = "the target" if s >= 1.0 else f"the path at {100 * s:.0f} %"
-            if err is not None:
-                return f"{where} is not reachable: {err}"
+            k = min(int(np.searchsorted(grid, s, side="right")) - 1, len(grid) - 2)
+            t = (s - grid[k]) / (grid[k + 1] - grid[k])
+            posture = poses[k] + t * (poses[k + 1] - poses[k])
+            start = q_from if goal is not None else self._predict(q_from, s)
+            return self._solve(
+                start, side, path.at(s), setup.frozen, hold, held, goal, posture, held_axes
+            )
+
+        s_prev = float(samples[0])
+        for s_next in samples[1:]:
+            for s, q_s, err in self._segment(q, s_prev, float(s_next), solve):
+                jump = self._jump(q, q_s)
+                q = q_s
+                self.last_q = q
+                self.path_s.append(s)
+                self.path_q.append(q.copy())
+                where = "the target" if s >= 1.0 else f"the path at {100 * s:.0f} %"
+                if err is not None:
+                    return f"{where} is not reachable: {err}", None
+                if jump is not None and jumped is None:
+                    name, shown = jump
+                    jumped = (
+                        f"{where} needs {name} to jump {shown} between two points "
+                        f"{100 * (s - self.path_s[-2]):.2f} % of the path apart: the arm "
+                        "changes its configuration there and could not follow the path; "
+                        "choose another target or allow more redundant axes",
+                        s,
+                        q.copy(),
+                    )
+            s_prev = float(s_next)
+            where = "the target" if s_prev >= 1.0 else f"the path at {100 * s_prev:.0f} %"
             if near is None:
                 # Without redundancy any free joint counts, else the moving arm's own.
                 watched = ~setup.frozen if rigid else self._arm_mask(side)
@@ -145,15 +238,67 @@ class ReachabilityChecker:
                     f"{where} is too close to a singular configuration (smallest singular "
                     f"value {sigma:.3f} m/rad, need {MIN_SINGULAR}): it could not be followed "
                     "at speed; allow more redundant axes or choose another target"
-                )
+                ), None
+        if jumped is not None:
+            return jumped[0], (jumped[1], jumped[2])
         if near is not None:
             where, name, gap = near
             return (
                 f"{where} needs {name} within {gap} of its limit: the arm could not follow "
                 "the line there (the joint brakes before its limit); choose another target "
                 "or allow more redundant axes"
-            )
-        return None
+            ), None
+        return None, None
+
+    def _segment(
+        self,
+        q: np.ndarray,
+        s0: float,
+        s1: float,
+        solve: Callable[[np.ndarray, float], tuple[np.ndarray, str | None]],
+        depth: int = 0,
+    ) -> list[tuple[float, np.ndarray, str | None]]:
+        """The samples ``(s, q, why not)`` from ``s0`` (solved: ``q``) to ``s1``: one, or
+        halves (up to MAX_SPLITS times) while a joint moves more than the jump bound between
+        them, so a continuous joint path is sampled densely where it is fast and a jump left
+        at the finest split is a change of branch (:meth:`_jump`)."""
+        q1, err = solve(q, s1)
+        if depth >= MAX_SPLITS or (err is None and self._jump(q, q1) is None):
+            return [(s1, q1, err)]
+        mid = 0.5 * (s0 + s1)
+        first = self._segment(q, s0, mid, solve, depth + 1)
+        _, q_mid, err_mid = first[-1]
+        if err_mid is not None:
+            return first
+        return first + self._segment(q_mid, mid, s1, solve, depth + 1)
+
+    def _predict(self, q: np.ndarray, s: float) -> np.ndarray:
+        """Where the IK starts for the sample at ``s`` from ``q``: ``q`` moved on along the
+        last recorded step when ``q`` is the last recorded sample (a continuous path goes on
+        much as it went: the IK then starts within a fraction of a degree of its solution)
+        and that takes no joint closer than PREDICT_MARGIN to a limit; else ``q``."""
+        if len(self.path_q) < 2 or not np.array_equal(q, self.path_q[-1]):
+            return q
+        ds = self.path_s[-1] - self.path_s[-2]
+        if ds <= 0.0:
+            return q
+        ahead = q + (q - self.path_q[-2]) * ((s - self.path_s[-1]) / ds)
+        gap = np.minimum(ahead - self.q_min, self.q_max - ahead)
+        if np.any((gap < PREDICT_MARGIN) & (gap < np.minimum(q - self.q_min, self.q_max - q))):
+            return q  # toward a limit: the IK finds where the path leaves it
+        return ahead
+
+    def _jump(self, a: np.ndarray, b: np.ndarray) -> tuple[str, str] | None:
+        """The joint moving most beyond its jump bound (JUMP_ANGLE, JUMP_LENGTH) from ``a``
+        to ``b``, with the distance shown in deg or mm; None if none does."""
+        over = np.abs(b - a) / self._jump_bound
+        j = int(np.argmax(over))
+        if over[j] <= 1.0:
+            return None
+        name = self.kin.joint_names[j]
+        d = abs(float(b[j] - a[j]))
+        revolute = self.kin.robot.joints[name].kind == "revolute"
+        return name, f"{math.degrees(d):.1f} deg" if revolute else f"{d * 1e3:.1f} mm"
 
     def _redundancy(
         self,
@@ -279,11 +424,31 @@ class ReachabilityChecker:
         too_long = _too_long(path, 0.05, math.radians(10))
         if too_long is not None:
             return q, too_long
+        end = self._coarse(q, side, path, setup, hold, held)
+        if end is None:
+            return self.last_q, f"the target is not reachable: {self._coarse_error}"
+        return end, None
+
+    def _coarse(
+        self,
+        q: np.ndarray,
+        side: RightLeft,
+        path: LinePath | ArcPath,
+        setup: IKSetup,
+        hold: RightLeft | None,
+        held: pin.SE3 | None,
+    ) -> np.ndarray | None:
+        """The end of ``path`` solved from ``q`` in coarse steps (5 cm, 10 deg: the local IK
+        does not fold the arm through a limit), the null space drawn to ``q``; None when a
+        step fails (:attr:`last_q` and :attr:`_coarse_error` say where and why)."""
+        q0 = q.copy()
+        held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
         for s in path.samples(0.05, math.radians(10))[1:]:
-            q, err = self._solve(q, side, path.at(s), setup.frozen, hold, held)
+            q, err = self._solve(q, side, path.at(s), setup.frozen, hold, held, None, q0, held_axes)
             if err is not None:
-                return q, f"the target is not reachable: {err}"
-        return q, None
+                self.last_q, self._coarse_error = q, err
+                return None
+        return q
 
     def _start(
         self, live: Kinematics, setup: IKSetup, hold: RightLeft | None
@@ -331,13 +496,25 @@ class ReachabilityChecker:
         hold: RightLeft | None,
         held: pin.SE3 | None,
         elbow: tuple[RedundantAxis, float] | None = None,
+        posture: np.ndarray | None = None,
+        held_axes: Sequence[RedundantAxis] = (),
     ) -> tuple[np.ndarray, str | None]:
-        """Position-level IK toward ``target`` (and the held pose); ``elbow``: an elbow
-        angle [rad] to approach as well, best-effort (retried without it when the pose
-        cannot be reached with it)."""
+        """Position-level IK toward ``target`` (and the held pose) from ``q``; ``elbow``: an
+        elbow angle [rad] to approach as well, best-effort (retried without it when the pose
+        cannot be reached with it). ``posture``: the configuration the null space of the
+        tasks and the ``held_axes`` is drawn to (:mod:`controller.motion.posture`)."""
         kin = self.kin
         start = q
-        for _ in range(MAX_ITER):
+        free = ~frozen
+        # Held axes whose rows involve a free joint (the others cannot move anyway).
+        held_axes = [a for a in held_axes if np.abs(axis_jacobian(kin, a)[free]).max() > 0.0]
+        axis_rows: list[np.ndarray] = []
+        reached = 0  # iterations with the pose reached
+        on_pose: np.ndarray | None = None  # the last configuration that reached it
+        weights: np.ndarray | None = None
+        for k in range(MAX_ITER):
+            if k == MAX_ITER // 2:
+                posture = None  # not there yet: the pose alone from here on
             kin.update(q)
             jacs = [kin.jacobian(side)]
             errs = [pose_error(target, kin.pose(side))]
@@ -351,12 +528,25 @@ class ReachabilityChecker:
                 swing = math.remainder(elbow[1] - axis_value(kin, elbow[0]), math.tau)
                 jacs.append(ELBOW_WEIGHT * axis_jacobian(kin, elbow[0])[None, :])
                 errs.append(np.array([ELBOW_WEIGHT * swing]))
-            if pos < POSITION_TOL and ang < ANGLE_TOL and abs(swing) < ELBOW_TOL:
-                return q, None
-            err = np.concatenate(errs)
             jac = np.vstack(jacs)
+            null = None
+            if posture is not None:
+                if held_axes:  # held axes' rows move with the configuration
+                    axis_rows = [axis_jacobian(kin, a)[None, :] for a in held_axes]
+                if weights is None:  # once per sample: they change little within one
+                    weights = limit_weights(q, self.q_min, self.q_max)
+                null = null_step(np.vstack([jac, *axis_rows]), free, q, posture, weights)
+                null *= NULL_GAIN / max(1.0, float(np.abs(null).max()) / MAX_NULL_STEP)
+            if pos < POSITION_TOL and ang < ANGLE_TOL and abs(swing) < ELBOW_TOL:
+                if null is None or reached >= NULL_ITER or float(np.abs(null).max()) < NULL_TOL:
+                    return q, None
+                reached += 1
+                on_pose = q
+            err = np.concatenate(errs)
             H = jac.T @ jac + DAMPING * np.eye(kin.nv)
             g = -jac.T @ err
+            if null is not None:
+                g -= DAMPING * null  # damped toward the posture step, not toward standing still
             lb = np.maximum(self.q_min - q, -MAX_STEP)
             ub = np.minimum(self.q_max - q, MAX_STEP)
             lb[frozen] = ub[frozen] = 0.0
@@ -364,11 +554,17 @@ class ReachabilityChecker:
             C, lo, hi = self.rows.rows(kin, lb, ub)
             dq = self.solver.solve(H, g, C, lo, hi, lb, ub)
             if dq is None:
+                if on_pose is not None:
+                    kin.update(on_pose)
+                    return on_pose, None
                 why = self._describe(q, pos, ang, frozen)
                 return q, f"{why} (no step keeps the limits and the held axes)"
             if float(np.abs(dq).max()) < 1e-9:
                 break  # stuck
             q = q + np.clip(dq, lb, ub)
+        if on_pose is not None:
+            kin.update(on_pose)
+            return on_pose, None  # the pose was reached; the posture as near as it got
         if elbow is not None:
             kin.update(q)
             errs = [pose_error(target, kin.pose(side))]
@@ -380,7 +576,7 @@ class ReachabilityChecker:
             ):
                 return q, None  # the pose is reached; the elbow as near as it gets
             # The pose first: this sample again without the elbow.
-            return self._solve(start, side, target, frozen, hold, held, None)
+            return self._solve(start, side, target, frozen, hold, held, None, posture, held_axes)
         return q, self._describe(q, pos, ang, frozen)
 
     def _describe(self, q: np.ndarray, pos: float, ang: float, frozen: np.ndarray) -> str:
