@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from controller.motion.motions import follow_posture
-from controller.motion.posture import MAX_WEIGHT, PosturePath, limit_weights, null_step
+from controller.motion.posture import (
+    LIMIT_ZONE,
+    MAX_WEIGHT,
+    PosturePath,
+    limit_weights,
+    null_step,
+    off_limits,
+)
 from controller.qp.tasks import PostureTask
 from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
@@ -96,3 +103,12 @@ def test_the_loop_posture_follows_the_path_then_stands():
     follow_posture(task, path, 1.0, 1.0, 0.01)
     np.testing.assert_allclose(task.reference, [0.7, 0.7])
     np.testing.assert_array_equal(task.rate, 0.0)
+
+
+def test_off_limits_draws_a_posture_out_of_the_zones_by_the_end_of_the_path():
+    lo, hi = np.array([-1.0, -1.0, -np.inf]), np.array([1.0, 1.0, np.inf])
+    q = np.array([0.95, 0.0, 3.0])  # 0.05 from the upper limit; mid-range; unbounded
+    np.testing.assert_allclose(off_limits(q, 0.0, lo, hi), q)
+    end = off_limits(q, 1.0, lo, hi)
+    np.testing.assert_allclose(end, [1.0 - LIMIT_ZONE * 2.0, 0.0, 3.0])
+    np.testing.assert_allclose(off_limits(q, 0.5, lo, hi), 0.5 * (q + end))

@@ -25,6 +25,8 @@ import numpy as np
 
 #: Largest posture weight (a joint at or beyond a limit); the others are 1 at mid-range.
 MAX_WEIGHT = 1e4
+#: Share of a joint's range next to each limit that :func:`off_limits` draws postures out of.
+LIMIT_ZONE = 0.1
 #: Damping of :func:`null_step`'s inverse, relative to its trace.
 RANK_TOL = 1e-10
 
@@ -42,6 +44,19 @@ def limit_weights(q: np.ndarray, q_min: np.ndarray, q_max: np.ndarray) -> np.nda
     w[~(ab > 0.0)] = MAX_WEIGHT  # at or beyond a limit (NaN: no finite limits, below)
     w[~np.isfinite(lo + hi)] = 1.0
     return np.minimum(w, MAX_WEIGHT)
+
+
+def off_limits(q: np.ndarray, s: float, q_min: np.ndarray, q_max: np.ndarray) -> np.ndarray:
+    """The posture ``q`` [rad, m] at path parameter ``s`` ∈ [0, 1], moved off the limits: a
+    joint closer than LIMIT_ZONE × its range to a limit is drawn out of that zone by the end
+    of the path (linearly in ``s``), so successive moves do not pile a joint up against a
+    limit (each one drawn to its own start, a joint that every move brings nearer its limit
+    ends there). Joints without finite limits are left as they are."""
+    span = q_max - q_min
+    zone = LIMIT_ZONE * np.where(np.isfinite(span), span, 0.0)
+    inside = np.clip(q, q_min + zone, q_max - zone)
+    out = q + s * (np.where(np.isfinite(span), inside, q) - q)
+    return out
 
 
 def null_step(
