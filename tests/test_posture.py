@@ -75,10 +75,15 @@ def test_a_heavy_joint_keeps_nearer_its_posture():
     assert abs(heavy[b]) < 0.1 * abs(even[b])
 
 
-def test_no_redundancy_no_step():
+def test_no_redundancy_no_step_and_zero_rows_take_none_away():
     jac = np.eye(3)
     step = null_step(jac, np.ones(3, dtype=bool), np.zeros(3), np.ones(3), np.ones(3))
-    np.testing.assert_array_equal(step, 0.0)
+    np.testing.assert_allclose(step, 0.0, atol=1e-8)
+    # 2 tasks on 3 joints, plus a row of zeros (a held axis of a frozen unit): one free
+    # direction left, and the step takes it.
+    rows = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]])
+    step = null_step(rows, np.ones(3, dtype=bool), np.zeros(3), np.ones(3), np.ones(3))
+    np.testing.assert_allclose(step, [0.0, 0.0, 1.0], atol=1e-8)
 
 
 def test_a_posture_path_interpolates_and_clamps():

@@ -81,8 +81,6 @@ class PositionIK:
         kin = self.kin
         start = q
         free = ~frozen
-        # Held axes whose rows involve a free joint (the others cannot move anyway).
-        held_axes = [a for a in held_axes if np.abs(axis_jacobian(kin, a)[free]).max() > 0.0]
         axis_rows: list[np.ndarray] = []
         reached = 0  # iterations with the pose reached
         on_pose: np.ndarray | None = None  # the last configuration that reached it
@@ -164,6 +162,13 @@ class PositionIK:
         if at_limit:
             text += f"; joints at their limits: {', '.join(at_limit)}"
         return text
+
+    def moving_axes(self, axes: Sequence[RedundantAxis], frozen: np.ndarray) -> list[RedundantAxis]:
+        """The ``axes`` whose rows involve a joint that is not ``frozen`` at the last update
+        (a vehicle or waist axis of a frozen unit, the other arm's elbow when that arm is
+        frozen: its row would cost every iteration for nothing)."""
+        free = ~frozen
+        return [a for a in axes if np.abs(axis_jacobian(self.kin, a)[free]).max(initial=0.0) > 0.0]
 
     def redundancy(
         self,

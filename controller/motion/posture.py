@@ -71,7 +71,8 @@ def null_step(
     ``free`` joints (a mask) move. Zero when the tasks leave no redundancy.
 
     ``d = r − W⁻¹Aᵀ(AW⁻¹Aᵀ)⁻¹A r`` with ``r = q0 − q`` over the free joints (``A``: the rows),
-    the inverse damped by :data:`RANK_TOL` of its trace (dependent rows, singular arms)."""
+    the inverse damped by :data:`RANK_TOL` of its trace (dependent or zero rows, singular
+    arms: no redundancy left gives a step of rounding size)."""
     step = np.zeros_like(q)
     idx = np.flatnonzero(free)
     jac = rows.take(idx, axis=1)
@@ -79,8 +80,6 @@ def null_step(
     m = jac.shape[0]
     if m == 0:
         step[idx] = r
-        return step
-    if jac.shape[1] <= m:
         return step
     inv_w = 1.0 / weights.take(idx)
     gram = (jac * inv_w).dot(jac.T)

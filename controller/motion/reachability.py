@@ -134,6 +134,7 @@ class ReachabilityChecker:
             n = max(len(samples), math.ceil(swing / SAMPLE_ANGLE) + 1)
             samples = [i / (n - 1) for i in range(n)]
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
+        held_axes = self.ik.moving_axes(held_axes, setup.frozen)
         rigid = self.ik.redundancy(side, hold, setup.frozen, held_axes) <= 0
         # The posture the null space is drawn to moves from the start toward the end
         # configuration (found first in coarse steps) along the path, so the null-space
@@ -386,6 +387,7 @@ class ReachabilityChecker:
         fails (:attr:`last_q` and :attr:`_coarse_error` say where and why)."""
         q0 = q.copy()
         held_axes = [a for a in self.axes if not setup.allowed.get(a, True)]
+        held_axes = self.ik.moving_axes(held_axes, setup.frozen)
         posture = q0 if posture_pull else None
         for s in path.samples(0.05, math.radians(10))[1:]:
             if posture is not None:
