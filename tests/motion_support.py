@@ -7,6 +7,7 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
+from controller.contract.motion_specs import MotionSpec
 from controller.control.core import CoreState, MotionCore
 from controller.motion.motions import Motion
 from hal.ideal_backend import IdealBackend
@@ -53,3 +54,17 @@ def chord_twist(a: pin.SE3, b: pin.SE3, dt: float) -> np.ndarray:
     out[:3] = (b.translation - a.translation) / dt
     out[3:] = pin.log3(b.rotation @ a.rotation.T) / dt
     return out
+
+
+def build_planned(core: MotionCore, spec: MotionSpec) -> Motion:
+    """``spec``'s motion built as the control process builds it: at the configuration it was
+    planned from (``spec.planned_from``), then run on the measured state."""
+    kin = core.kin
+    if spec.planned_from is None:
+        return spec.build(kin, core.dt)
+    measured = kin.q.copy()
+    kin.update(spec.planned_from)
+    try:
+        return spec.build(kin, core.dt)
+    finally:
+        kin.update(measured)

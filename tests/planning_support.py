@@ -3,7 +3,7 @@ a Context whose command channel only records the calls."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -73,6 +73,26 @@ def snapshot(
         original_theta=0.0,
         offsets=offsets,
         alarms=[],
+    )
+
+
+def core_snapshot(core: Any) -> Snapshot:
+    """The state a control process would publish for ``core`` (a MotionCore, Ready): its
+    measured joints, original frame and control-point offsets, so a plan made on it runs
+    on the core as planned (a plain :func:`snapshot` has the original frame at the origin,
+    a real core has it where its body is)."""
+    rob = core.robot
+    kin = core.kin
+    snap = snapshot(rob, {n: float(kin.q[kin.index(n)]) for n in kin.joint_names})
+    offsets = snap.offsets.copy()
+    for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
+        if side in kin.arms:
+            offsets[k] = kin.control_point_offset(side).homogeneous[:3]
+    return replace(
+        snap,
+        original=kin.original_frame.homogeneous[:3].copy(),
+        original_theta=float(kin.original_theta),
+        offsets=offsets,
     )
 
 

@@ -20,6 +20,7 @@ from controller.motion.motions import (
     VehicleMotion,
 )
 from controller.motion.paths import ArcPath, LinePath
+from controller.motion.posture import PosturePath
 from controller.motion.reachability import ReachabilityChecker
 from controller.vocabulary import RightLeft, UnitType
 from tests.motion_support import DT, chord_twist, make_core, run_motion
@@ -436,3 +437,41 @@ def test_cartesian_targets_are_the_path_at_each_cycle_through_pause_and_stop():
         if motion.finished:
             break
     assert motion.finished
+
+
+def test_raising_the_hand_follows_the_checked_joint_path_on_the_line():
+    """SmartPal V's hand 15 cm up from home, elbow free, at 0.25 m/s on the simulated plant:
+    the motion's posture follows the checked joint path, so the loop keeps r_arm_j6 off its
+    limit as the check did: on the line within 0.05 mm, ending on the checked configuration,
+    no warning. Was (posture drawn to the start): 7 mm off the line with r_arm_j6 braked on
+    its limit (issue 16.2), and with the check's minimum-norm path not a reference either."""
+    core = make_core("smartpal5", "mujoco")
+    start, end = hand_target(core, [0.0, 0.0, 0.15], [0.0, 0.0, 0.0])
+    path = LinePath(start, end)
+    elbow = {RedundantAxis.RIGHT_ELBOW: True}
+    probe = CartesianMotion(core.kin, DT, RIGHT, path, SPEED, ACCEL, elbow)
+    checker = ReachabilityChecker(core.kin)
+    assert checker.check(core.kin, RIGHT, path, probe.setup()) is None
+    cap, _ = checker.braking_speed_limit(RIGHT, *probe.profile_limits)
+    v, a = checker.path_parameter_limits()
+    posture = PosturePath(np.array(checker.path_s), np.array(checker.path_q))
+    motion = CartesianMotion(
+        core.kin,
+        DT,
+        RIGHT,
+        path,
+        SPEED,
+        ACCEL,
+        elbow,
+        path_limits=(min(v, cap), a),
+        posture=posture,
+    )
+    worst = [0.0]
+
+    def watch(c: MotionCore) -> None:
+        worst[0] = max(worst[0], line_deviation(path, c.kin.pose(RIGHT))[0])
+
+    run_motion(core, motion, watch)
+    assert core.alarms == []
+    assert worst[0] <= 0.05e-3, f"{worst[0] * 1e3:.4f} mm off the line"
+    np.testing.assert_allclose(core.kin.q, checker.last_q, atol=math.radians(0.5))

@@ -34,12 +34,14 @@ def hg(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> list[float]:
     return [1, 0, 0, x, 0, 1, 0, y, 0, 0, 1, z]
 
 
-#: SmartPal V at home: the right hand 150 mm towards the body brings the forearm within
-#: 19.5 mm of the torso (checked below); 20 mm is allowed.
-INTO_BODY = hg(y=150)
+#: SmartPal V at home: the right hand 100 mm back and 200 mm towards the body brings the
+#: forearm within 16-20 mm of the torso (checked below); 20 mm is allowed. (150 mm straight
+#: in no longer does: the checked null space keeps the arm's joints off their limits, and
+#: the elbow out.)
+INTO_BODY = hg(x=-100, y=200)
 BESIDE = hg(y=60)
 #: JARA's linear moves keep the elbow angle: the forearm meets the torso later.
-INTO_BODY_JARA = hg(y=230)
+INTO_BODY_JARA = hg(x=-150, y=230)
 
 
 @cache

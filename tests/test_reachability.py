@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -12,7 +13,8 @@ from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
-from controller.motion.reachability import MAX_SAMPLES, POSITION_TOL, ReachabilityChecker
+from controller.motion.position_ik import POSITION_TOL
+from controller.motion.reachability import MAX_SAMPLES, SAMPLE_STEP, ReachabilityChecker
 from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
 
@@ -107,18 +109,20 @@ def test_target_behind_the_robot_through_the_torso_is_refused(allowed):
 
 def test_raising_the_hand_needs_the_elbow():
     """15 cm straight up: with the elbow held the wrist runs into its limit on the way; with
-    the elbow free it gets there, but with r_arm_j6 riding its limit (0.01 deg) half-way,
-    which the live IK cannot follow on the line (issue 16.2: 7 mm off the line at 0.25 m/s,
-    1 mm at 0.08 m/s): refused, naming the joint. 5 cm up stays clear of it."""
+    the elbow free the check keeps r_arm_j6 off its limit through the elbow (it rode its
+    limit half-way with minimum-norm steps, which the loop could not follow on the line:
+    issue 16.2, 7 mm off the line at 0.25 m/s; the loop now follows the checked path,
+    tests/test_motions.py)."""
     kin = at_home("smartpal5")
     path = line_from_hand(kin, [0.0, 0.0, 0.15])
     held = check(kin, path, {})
     assert_refused(held)
     assert "not reachable" in held
-    free = check(kin, path, ELBOW)
-    assert_refused(free)
-    assert "r_arm_j6 within" in free
-    assert check(kin, line_from_hand(kin, [0.0, 0.0, 0.05]), ELBOW) is None
+    checker = ReachabilityChecker(kin)
+    assert check(kin, path, ELBOW, checker=checker) is None
+    j6 = kin.index("r_arm_j6")
+    closest = min(q[j6] for q in checker.path_q) - checker.q_min[j6]
+    assert closest > math.radians(3.0)
 
 
 def test_waist_range_that_excludes_the_needed_bend_refuses_a_far_low_target():
@@ -310,3 +314,75 @@ def test_a_path_with_too_many_samples_is_refused_without_sampling_it():
     for far in (1e9, 0.02 * MAX_SAMPLES):
         reason = check(kin, line_from_hand(kin, (far, 0.0, 0.0)))
         assert reason is not None and "too long to check" in reason
+
+
+#: Cartesian speed [m/s] at which the continuity test asks the checked path to be followable.
+LINE_SPEED = 0.1
+#: 100 mm along each axis from home.
+HOME_LINES = [
+    (robot_id, axis, sign)
+    for robot_id in ("smartpal5", "pa10", "rh")
+    for axis in range(3)
+    for sign in (1.0, -1.0)
+]
+
+
+@pytest.mark.parametrize(
+    ("robot_id", "axis", "sign"),
+    HOME_LINES,
+    ids=[f"{r}-{'+-'[g < 0]}{'xyz'[a]}" for r, a, g in HOME_LINES],
+)
+def test_the_checked_joint_path_is_continuous(robot_id: str, axis: int, sign: float):
+    """Consecutive samples of the checked path (the configurations the loop's null space
+    follows) are no farther apart than each joint can go at its speed limit in the time the
+    hand takes between them at 0.1 m/s. Was (SmartPal V, +z): the check's minimum-norm steps
+    ran r_arm_j6 into its limit and the arm swung r_arm_j2 by 11 deg within 1 cm."""
+    kin = at_home(robot_id)
+    dp = np.zeros(3)
+    dp[axis] = 0.1 * sign
+    path = line_from_hand(kin, dp)
+    checker = ReachabilityChecker(kin)
+    assert check(kin, path, ELBOW, checker=checker) is None
+    q = np.array(checker.path_q)
+    s = np.array(checker.path_s)
+    dt = np.diff(s) * path.length / LINE_SPEED
+    over = np.abs(np.diff(q, axis=0)) / (checker.v_max * dt[:, None])
+    k, j = np.unravel_index(int(np.argmax(over)), over.shape)
+    assert over[k, j] <= 1.0, (
+        f"{kin.joint_names[j]} moves {math.degrees(abs(q[k + 1, j] - q[k, j])):.1f} deg "
+        f"between s = {s[k]:.3f} and {s[k + 1]:.3f}"
+    )
+    # The sample spacing the check promises, and the end on the target.
+    assert np.diff(s).max() * path.length <= SAMPLE_STEP + 1e-12
+    np.testing.assert_allclose(s[-1], 1.0)
+
+
+def test_fast_stretches_are_sampled_densely_and_a_jump_stays_a_jump():
+    """Between two samples a joint moving more than the jump bound is sampled again in halves:
+    a continuous motion ends up in steps under the bound, a jump (a change of IK branch)
+    does not shrink and is named with its size."""
+    kin = at_home("smartpal5")
+    checker = ReachabilityChecker(kin)
+    j = kin.index("r_arm_j2")
+    q0 = kin.q.copy()
+
+    def at(value: float) -> np.ndarray:
+        q = q0.copy()
+        q[j] += value
+        return q
+
+    def smooth(q: np.ndarray, s: float) -> tuple[np.ndarray, str | None]:
+        return at(math.radians(20.0) * s), None
+
+    def flip(q: np.ndarray, s: float) -> tuple[np.ndarray, str | None]:
+        return at(math.radians(20.0) if s > 0.3 else 0.0), None
+
+    steps = checker._segment(q0, 0.0, 1.0, smooth)
+    qs = [q0] + [q for _, q, _ in steps]
+    assert all(checker._jump(a, b) is None for a, b in itertools.pairwise(qs))
+    assert len(steps) >= 4  # 20 deg in steps of at most 5 (the bound)
+    steps = checker._segment(q0, 0.0, 1.0, flip)
+    qs = [q0] + [q for _, q, _ in steps]
+    jumps = [checker._jump(a, b) for a, b in itertools.pairwise(qs)]
+    assert jumps.count(None) == len(jumps) - 1
+    assert ("r_arm_j2", "20.0 deg") in jumps

@@ -524,12 +524,12 @@ def collision_steps(s: Session) -> dict[str, Any]:
         is_hold_other_arm=False,
     )
     s.motion("moveLinearCartesianRel(RIGHT, y +150 mm)", a.MoveLinearCartesianRel, inward)
-    p = s.begin("8. elbow swing +12 deg into the body, right hand held (CP-hold)")
+    p = s.begin("8. elbow swing +20 deg into the body, right hand held (CP-hold)")
     held = s.pose(RIGHT)
     reply = s.call(
-        "moveCPHoldRel(RIGHT, elbow +12 deg)",
+        "moveCPHoldRel(RIGHT, elbow +20 deg)",
         a.MoveCPHoldRel,
-        cp_hold_rel(RIGHT, elbow=12.0),
+        cp_hold_rel(RIGHT, elbow=20.0),
         refusal=True,
     )
     rid = reply.return_id

@@ -27,6 +27,7 @@ from controller.motion.motions import (
     VehicleMotion,
 )
 from controller.motion.paths import ArcPath, LinePath
+from controller.motion.posture import PosturePath
 from controller.motion.stream import JointStreamMotion
 from controller.vocabulary import RightLeft
 
@@ -78,6 +79,9 @@ class CartesianMoveSpec(MotionSpec):
     duration: float | None = None
     #: Path-parameter rate [1/s] and acceleration [1/s²] the joints allow (from planning).
     path_limits: tuple[float, float] | None = None
+    #: The checked joint path (path parameters, one configuration per row [rad, m]): the
+    #: null space follows it (:mod:`controller.motion.posture`); None: the start posture.
+    posture: tuple[np.ndarray, np.ndarray] | None = None
 
     def build(self, kin: Kinematics, dt: float) -> Motion:
         start = kin.pose(self.side)
@@ -100,6 +104,7 @@ class CartesianMoveSpec(MotionSpec):
             self.elbow,
             self.duration,
             self.path_limits,
+            None if self.posture is None else PosturePath(*self.posture),
         )
 
 

@@ -34,6 +34,7 @@ import numpy as np
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
 from controller.motion.paths import ArcPath, LinePath, VectorPath
+from controller.motion.posture import PosturePath
 from controller.motion.profile import PathProfile, ProfileState
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
 from controller.vocabulary import RightLeft, UnitType
@@ -112,6 +113,20 @@ def follow_vector(tasks: list[AxisTask], path: VectorPath, s0: float, s1: float,
     now, nxt = path.at(s0), path.at(s1)
     for i, task in enumerate(tasks):
         task.set_target(float(now[i]), float(nxt[i] - now[i]) / dt)
+
+
+def follow_posture(task: PostureTask, path: PosturePath, s0: float, s1: float, dt: float):
+    """The regularisation ``task`` on the checked joint ``path``: reference at ``s0``,
+    average rate toward ``s1``. While the path parameter stands still (the time law has
+    ended, or stopped on the path) the reference is left alone (the core holds the posture
+    the robot has then, see :func:`controller.motion.arrival.hold_posture`) and the rate is
+    zero."""
+    if s1 <= s0:
+        task.rate[...] = 0.0
+        return
+    now = path.at(s0)
+    task.reference[...] = now
+    task.rate[...] = (path.at(s1) - now)[task.joints] / dt
 
 
 def _posture(kin: Kinematics) -> PostureTask:
@@ -229,7 +244,9 @@ class CartesianMotion(Motion):
     arm's control point fixed (else its joints are frozen). ``elbow``: target elbow angle
     [rad] reached along the path (JARA CarPosWithElbow), or None. ``path_limits``: bounds on
     the path parameter's rate [1/s] and acceleration [1/s²] from the joints' limits along
-    this path (see ReachabilityChecker.path_parameter_limits).
+    this path (see ReachabilityChecker.path_parameter_limits). ``posture``: the checked joint
+    path, which the regularisation posture follows along the path parameter (the null space
+    goes where the check went, :mod:`controller.motion.posture`); None: the start posture.
     """
 
     def __init__(
@@ -246,10 +263,15 @@ class CartesianMotion(Motion):
         elbow: float | None = None,
         duration: float | None = None,
         path_limits: tuple[float, float] | None = None,
+        posture: PosturePath | None = None,
     ):
         self.kin = kin
         self.side = side
         self.path = path
+        self.posture_path = posture
+        self.posture = _posture(kin)
+        if posture is not None:
+            self.posture.reference[:] = posture.at(0.0)
         self.elbow: AxisTask | None = None
         #: Elbow angle [rad] along the path (None: the elbow is not commanded).
         self.elbow_path: VectorPath | None = None
@@ -297,7 +319,7 @@ class CartesianMotion(Motion):
             tasks.append(self.hold)
         if self.elbow is not None:
             tasks.append(self.elbow)
-        tasks.append(_posture(kin))
+        tasks.append(self.posture)
         allowed = {a: self.allowed.get(a, False) for a in RedundantAxis}
         return IKSetup(tasks, frozen, allowed, self.ranges)
 
@@ -307,6 +329,8 @@ class CartesianMotion(Motion):
         if self.elbow is not None and self.elbow_path is not None:
             e0, e1 = float(self.elbow_path.at(s0)[0]), float(self.elbow_path.at(s1)[0])
             self.elbow.set_target(e0, (e1 - e0) / dt)
+        if self.posture_path is not None:
+            follow_posture(self.posture, self.posture_path, s0, s1, dt)
 
 
 class DualCartesianMotion(Motion):

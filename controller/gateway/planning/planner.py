@@ -201,6 +201,9 @@ class Planner:
             limits = (cap, limits[1])  # slower, so the joint never has to brake off the line
         if math.isfinite(limits[0]):
             spec.path_limits = limits
+        path_s, path_q = self.last_path
+        if len(path_s) > 1:
+            spec.posture = (np.array(path_s), np.array(path_q))
         return spec, q_end
 
     def _check_elbow(self, side: RightLeft, q_end: np.ndarray, elbow: float) -> None:
