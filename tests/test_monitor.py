@@ -5,6 +5,7 @@ The linear-move-on-the-line check through StreamState lives in test_service_spec
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterator
 
 import grpc
@@ -28,9 +29,26 @@ def _first(stream: grpc.Future) -> pb.StateSample:
     return next(iter(stream))  # type: ignore[call-overload]
 
 
+def _open(d: TestDaemon, rate_hz: float) -> tuple[grpc.Future, Iterator[pb.StateSample]]:
+    """A stream and its samples, once the daemon's one stream slot is free: a stream the
+    previous test cancelled gives its slot back a moment later, not at once."""
+    for _ in range(200):
+        stream = d.monitor.StreamState(pb.StreamStateRequest(rate_hz=rate_hz))
+        samples = iter(stream)  # type: ignore[call-overload]
+        try:
+            first = next(samples)
+        except grpc.RpcError as exc:
+            assert exc.code() == grpc.StatusCode.RESOURCE_EXHAUSTED, exc
+            stream.cancel()
+            d.wait_for(lambda: False, 0.05)
+            continue
+        return stream, itertools.chain([first], samples)
+    raise AssertionError("the stream slot never came free")
+
+
 def test_a_cancelled_slow_stream_frees_its_slot_at_once(d: TestDaemon):
-    slow = d.monitor.StreamState(pb.StreamStateRequest(rate_hz=0.001))  # raised to 0.01 Hz
-    assert _first(slow).sequence == 0
+    slow, samples = _open(d, 0.001)  # raised to 0.01 Hz
+    assert next(samples).sequence == 0
     busy = d.monitor.StreamState(pb.StreamStateRequest(rate_hz=10.0))
     with pytest.raises(grpc.RpcError) as err:
         _first(busy)
@@ -52,8 +70,7 @@ def test_a_cancelled_slow_stream_frees_its_slot_at_once(d: TestDaemon):
 
 
 def test_samples(d: TestDaemon):
-    stream = d.monitor.StreamState(pb.StreamStateRequest(rate_hz=0.0))  # server default
-    it = iter(stream)
+    stream, it = _open(d, 0.0)  # server default
     first, second = next(it), next(it)
     stream.cancel()
     assert (first.sequence, second.sequence) == (0, 1)
@@ -72,7 +89,9 @@ def test_samples_name_joints_with_limits_commands_motion_and_wall_time(d: TestDa
     running motion and the queue, the daemon's wall-clock time."""
     d.reset()
     assert d.wait_for(lambda: d.state() == S.READY)
-    before = _first(d.monitor.StreamState(pb.StreamStateRequest(rate_hz=50.0)))
+    probe, samples = _open(d, 50.0)
+    before = next(samples)
+    probe.cancel()
     arm = before.joints[0]
     assert list(arm.names) == list(d.ctx.robot.unit_joints("RIGHT_ARM"))
     assert len(arm.commanded) == len(arm.limits) == len(arm.position) == 7
@@ -87,9 +106,9 @@ def test_samples_name_joints_with_limits_commands_motion_and_wall_time(d: TestDa
         pb.ManipulatorMiddleMovePTPJointAbsRequest(arm=pb.RIGHT, joint_points=target)
     )
     assert reply.return_id.id == 0, reply.return_id.comment
-    stream = d.monitor.StreamState(pb.StreamStateRequest(rate_hz=250.0))
+    stream, samples = _open(d, 250.0)
     moving = None
-    for sample in stream:
+    for sample in samples:
         if sample.motion.active:
             moving = sample
             break
@@ -98,6 +117,8 @@ def test_samples_name_joints_with_limits_commands_motion_and_wall_time(d: TestDa
     stream.cancel()
     assert moving is None or moving.motion.started == before.motion.started + 1
     assert d.wait_idle()
-    after = _first(d.monitor.StreamState(pb.StreamStateRequest(rate_hz=50.0)))
+    probe, samples = _open(d, 50.0)
+    after = next(samples)
+    probe.cancel()
     assert after.motion.started == after.motion.finished == before.motion.started + 1
     assert after.joints[0].commanded[0] == pytest.approx(target[0], abs=0.01)
