@@ -59,12 +59,4 @@ def chord_twist(a: pin.SE3, b: pin.SE3, dt: float) -> np.ndarray:
 def build_planned(core: MotionCore, spec: MotionSpec) -> Motion:
     """``spec``'s motion built as the control process builds it: at the configuration it was
     planned from (``spec.planned_from``), then run on the measured state."""
-    kin = core.kin
-    if spec.planned_from is None:
-        return spec.build(kin, core.dt)
-    measured = kin.q.copy()
-    kin.update(spec.planned_from)
-    try:
-        return spec.build(kin, core.dt)
-    finally:
-        kin.update(measured)
+    return spec.build_as_planned(core.kin, core.dt)

@@ -1,8 +1,14 @@
-"""Test helpers: loaded robots (cached), fresh kinematics, random configurations."""
+"""Test helpers: loaded robots (cached), fresh kinematics, random configurations, the
+benchmark tools run as a user runs them."""
 
 from __future__ import annotations
 
 import functools
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -34,3 +40,21 @@ def random_configuration(kin: Kinematics, rng: np.random.Generator) -> np.ndarra
         hi = min(spec.upper, VEHICLE_SPAN)
         q[kin.index(name)] = rng.uniform(lo, hi)
     return q
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_tool(name: str, *args: str) -> tuple[list[str], Any]:
+    """``python tools/<name> args`` from the project root: its output lines and the JSON
+    object of its last line (every benchmark ends with one)."""
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / name), *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+        cwd=ROOT,
+    ).stdout
+    lines = out.strip().splitlines()
+    return lines, json.loads(lines[-1])

@@ -45,6 +45,19 @@ class MotionSpec:
     def build(self, kin: Kinematics, dt: float) -> Motion:
         raise NotImplementedError
 
+    def build_as_planned(self, kin: Kinematics, dt: float) -> Motion:
+        """The motion the gateway checked: built at the configuration it was planned from
+        (:attr:`planned_from`), so its path and time law are the checked ones, not a re-plan
+        from where the robot happens to be; ``kin`` is back at its measured state after."""
+        if self.planned_from is None:
+            return self.build(kin, dt)
+        measured = kin.q.copy()
+        kin.update(self.planned_from)
+        try:
+            return self.build(kin, dt)
+        finally:
+            kin.update(measured)
+
 
 @dataclass
 class JointMoveSpec(MotionSpec):

@@ -219,15 +219,7 @@ class Controller(Commands):
         path and time law are the checked ones, not a re-plan from where the robot happens
         to be. The motion then runs on the live kinematics. A motion started at once was
         refused before this if the robot moved more than PLAN_TOLERANCE since planning."""
-        kin = self.core.kin
-        if spec.planned_from is None:
-            return spec.build(kin, self.dt)
-        measured = kin.q.copy()
-        kin.update(spec.planned_from)
-        try:
-            return spec.build(kin, self.dt)
-        finally:
-            kin.update(measured)
+        return spec.build_as_planned(self.core.kin, self.dt)
 
     def _shutdown_step(self) -> bool:
         """True when the loop should end (shutdown requested and the robot is safe)."""
