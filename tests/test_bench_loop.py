@@ -33,11 +33,15 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
     assert set(result["median"]) == {
         "compute_us_p50",
         "compute_us_p99",
+        "cpu_us_p50",
+        "cpu_us_p99",
         "late_by_more_than_half_period",
         "overruns",
     }
     for run in result["per_run"]:
         assert run["cycles"] == 100
+        assert 0 < run["cpu_us_p50"] <= run["cpu_us_p99"]
+        assert all("cpu_p50" in seg for seg in run["segments"].values())
         assert len(run["load"]) == 3
         assert "late_by_more_than_half_period" in run and "overruns" in run
         pieces = run["pieces_us"]

@@ -17,7 +17,9 @@ publishes the snapshot, as the control process does. The garbage collector runs 
 loop's slack as in the daemon (``--gc automatic``: CPython's own collection).
 
 Prints per run: the machine load at its start (``os.getloadavg``), cycle compute time and wake
-latency (p50/p99/max), overruns (a cycle ending after the next deadline) and cycles woken
+latency (p50/p99/max), the step's thread CPU time (p50/p99, overall and by segment: the
+cycle's cost without the time it spent off the CPU, steadier than the wall clock on a shared
+machine), overruns (a cycle ending after the next deadline) and cycles woken
 late by more than half a period, the per-piece breakdown of the compute time (median and p99
 per cycle [µs]: read, kinematics, motion, collision (distances and rows), QP build, QP solve,
 write, publish, other), the share of cycles with collision rows active (in the whole run and
@@ -71,7 +73,7 @@ def _patch(obj: Any, name: str, value: Any) -> None:
 
 PIECES = ("read", "kinematics", "motion", "collision", "qp_build", "qp_solve", "write", "publish")
 #: Extra columns of :attr:`Breakdown.rows` after the pieces and "other".
-COMPUTE, ROWS, ARM_ROWS, SEGMENT = range(len(PIECES) + 1, len(PIECES) + 5)
+COMPUTE, ROWS, ARM_ROWS, SEGMENT, CPU = range(len(PIECES) + 1, len(PIECES) + 6)
 
 
 class Breakdown:
@@ -81,7 +83,7 @@ class Breakdown:
     def __init__(self, core: MotionCore, capacity: int, wrap: bool = True):
         """``wrap=False``: no timers (the pieces stay 0), only the compute time and rows."""
         self.now = dict.fromkeys(PIECES, 0)
-        self.rows = np.zeros((capacity, SEGMENT + 1))
+        self.rows = np.zeros((capacity, CPU + 1))
         self.n = 0
         self.wrap = wrap
         if wrap:
@@ -136,19 +138,23 @@ class Breakdown:
 
         return wrapped
 
-    def end_cycle(self, compute_ns: int, rows: int, arm_rows: bool, segment: int) -> None:
-        """Close the cycle: ``rows`` collision rows, ``arm_rows`` some between the two arms,
-        ``segment``: index of the running motion's segment (-1: none)."""
+    def end_cycle(
+        self, compute_ns: int, cpu_ns: int, rows: int, arm_rows: bool, segment: int
+    ) -> None:
+        """Close the cycle: wall-clock ``compute_ns`` and thread CPU ``cpu_ns`` of the step,
+        ``rows`` collision rows, ``arm_rows`` some between the two arms, ``segment``: index
+        of the running motion's segment (-1: none)."""
         if self.n < len(self.rows):
             row = self.rows[self.n]
             for i, name in enumerate(PIECES):
                 row[i] = self.now[name]
             row[len(PIECES)] = compute_ns - sum(self.now.values())
-            row[COMPUTE], row[ROWS], row[ARM_ROWS], row[SEGMENT] = (
+            row[COMPUTE], row[ROWS], row[ARM_ROWS], row[SEGMENT], row[CPU] = (
                 compute_ns,
                 rows,
                 arm_rows,
                 segment,
+                cpu_ns,
             )
             self.n += 1
         for name in PIECES:
@@ -161,13 +167,21 @@ class Breakdown:
         return {name: _percentiles(rows[:, i]) for i, name in enumerate((*PIECES, "other"))}
 
     def segment_summary(self, names: list[str]) -> dict[str, dict[str, float]]:
-        """Compute time [µs] p50/p99 and cycles per segment of the mix ("idle": no motion)."""
+        """Compute time [µs] p50/p99, the step's thread CPU time p50/p99 (``cpu_p50``,
+        ``cpu_p99``) and cycles per segment of the mix ("idle": no motion)."""
         rows = self.rows[: self.n]
         out = {}
         for k, name in [(-1, "idle"), *((names.index(n), n) for n in dict.fromkeys(names))]:
-            mine = rows[rows[:, SEGMENT] == k, COMPUTE] / 1e3
-            out[name] = {**_percentiles(mine), "cycles": len(mine)}
+            mine = rows[rows[:, SEGMENT] == k]
+            cpu = {f"cpu_{key}": v for key, v in _percentiles(mine[:, CPU] / 1e3).items()}
+            out[name] = {**_percentiles(mine[:, COMPUTE] / 1e3), **cpu, "cycles": len(mine)}
         return out
+
+    def cpu_summary(self) -> dict[str, float]:
+        """The step's thread CPU time [µs] p50/p99 over the run: what the cycle costs with
+        the time it spent off the CPU left out (robust to other work on the machine, not
+        to what that work does to the caches)."""
+        return _percentiles(self.rows[: self.n, CPU] / 1e3)
 
     def collision_summary(self, close: int) -> dict[str, Any]:
         """Shares [%] of cycles with collision rows, in the run and in segment ``close``."""
@@ -249,7 +263,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     segment = {"now": -1}
 
     def step(cycle: int, t: float) -> bool:
-        t0 = time.perf_counter_ns()
+        t0, c0 = time.perf_counter_ns(), time.thread_time_ns()
         core.cycle()
         if core.motion is None:
             segment["now"] = -1
@@ -261,7 +275,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         elif not ready and core.motion is None and not idle.is_set():
             idle.set()
         publish()
-        compute = time.perf_counter_ns() - t0
+        compute, cpu = time.perf_counter_ns() - t0, time.thread_time_ns() - c0
         n_rows, between = 0, False
         if collision is not None and arm_rows is not None:
             n_rows = len(collision.pairs)
@@ -269,7 +283,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 between = bool(n_rows and arm_rows[collision.pairs].any())
                 d = collision.distances.distances[arm_rows]
                 closest["arms"] = min(closest["arms"], float(d.min(initial=math.inf)))
-        breakdown.end_cycle(compute, n_rows, between, segment["now"])
+        breakdown.end_cycle(compute, cpu, n_rows, between, segment["now"])
         return core.state != CoreState.ALARM
 
     thread = threading.Thread(target=planner, daemon=True)
@@ -318,6 +332,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             f"{name:16s} p50 {stats[f'{name}_p50']:8.1f}  p99 {stats[f'{name}_p99']:8.1f}  "
             f"max {stats[f'{name}_max']:8.1f}"
         )
+    cpu = breakdown.cpu_summary()
+    print(
+        f"{'cpu_us':16s} p50 {cpu['p50']:8.1f}  p99 {cpu['p99']:8.1f}  "
+        "(the step's thread CPU time: its cost without the time off the CPU)"
+    )
     print(
         f"cycles {stats['cycles']}, overruns {stats['overruns']}, "
         f"late by > half a period {stats['late_by_more_than_half_period']}"
@@ -344,6 +363,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             for name, v in by_segment.items()
         )
     )
+    print(
+        "cpu p50/p99 [us] by segment: "
+        + ", ".join(
+            f"{name} {v['cpu_p50']:.0f}/{v['cpu_p99']:.0f}" for name, v in by_segment.items()
+        )
+    )
     gc_figures = None
     if collector is not None:
         gc_figures = {
@@ -366,6 +391,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "motions": done["motions"],
         "alarms": len(core.alarms),
         **stats,
+        "cpu_us_p50": cpu["p50"],
+        "cpu_us_p99": cpu["p99"],
         "pieces_us": pieces,
         "collision": rows,
         "segments": by_segment,
@@ -414,12 +441,20 @@ def main() -> int:
         if args.runs > 1:
             print(f"--- run {i + 1}/{args.runs}")
         runs.append(run(args))
-    keys = ("compute_us_p50", "compute_us_p99", "late_by_more_than_half_period", "overruns")
+    keys = (
+        "compute_us_p50",
+        "compute_us_p99",
+        "cpu_us_p50",
+        "cpu_us_p99",
+        "late_by_more_than_half_period",
+        "overruns",
+    )
     median = {k: statistics.median(r[k] for r in runs) for k in keys}
     if args.runs > 1:
         print(
             f"median of {args.runs} runs: compute p50 {median['compute_us_p50']:.1f} us, "
-            f"p99 {median['compute_us_p99']:.1f} us, late by > half a period "
+            f"p99 {median['compute_us_p99']:.1f} us (CPU p50 {median['cpu_us_p50']:.1f}, "
+            f"p99 {median['cpu_us_p99']:.1f} us), late by > half a period "
             f"{median['late_by_more_than_half_period']:g}, overruns {median['overruns']:g}; "
             f"load at the starts {[r['load'][0] for r in runs]}"
         )
