@@ -2,33 +2,14 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
+from tests.support import run_tool
 
-ROOT = Path(__file__).resolve().parents[1]
+SHORT = ("--seconds", "0.5", "--rate", "200", "--no-realtime")
 
 
 def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs():
-    out = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "tools" / "bench_loop.py"),
-            "--seconds",
-            "0.5",
-            "--rate",
-            "200",
-            "--runs",
-            "2",
-            "--no-realtime",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=True,
-    ).stdout
-    result = json.loads(out.strip().splitlines()[-1])
+    lines, result = run_tool("bench_loop.py", *SHORT, "--runs", "2")
+    out = "\n".join(lines)
     assert result["runs"] == 2 and len(result["per_run"]) == 2
     assert set(result["median"]) == {
         "compute_us_p50",
@@ -69,22 +50,8 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
 
 
 def test_bench_loop_without_the_breakdown_still_reports_the_cycle():
-    out = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "tools" / "bench_loop.py"),
-            "--seconds",
-            "0.5",
-            "--rate",
-            "200",
-            "--no-realtime",
-            "--no-breakdown",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=True,
-    ).stdout
-    (run,) = json.loads(out.strip().splitlines()[-1])["per_run"]
+    lines, result = run_tool("bench_loop.py", *SHORT, "--no-breakdown")
+    out = "\n".join(lines)
+    (run,) = result["per_run"]
     assert run["cycles"] == 100 and run["pieces_us"] == {}
     assert "per cycle [us]" not in out and "collision rows active in" in out
