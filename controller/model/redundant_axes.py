@@ -33,30 +33,37 @@ class RedundantAxis(enum.Enum):
     VEHICLE_Y = "vehicleY"
     VEHICLE_THETA = "vehicleTheta"
 
-    @property
-    def is_elbow(self) -> bool:
-        return self in (RedundantAxis.RIGHT_ELBOW, RedundantAxis.LEFT_ELBOW)
-
-    @property
-    def is_lumbar(self) -> bool:
-        return self.value.startswith("lumbar")
-
-    @property
-    def is_vehicle(self) -> bool:
-        return self.value.startswith("vehicle")
+    def __init__(self, value: str) -> None:
+        # Worked out once per member: the cycle asks these several times per axis.
+        #: An arm's elbow angle.
+        self.is_elbow = value in ("rightElbow", "leftElbow")
+        #: A composite waist angle.
+        self.is_lumbar = value.startswith("lumbar")
+        #: A vehicle coordinate.
+        self.is_vehicle = value.startswith("vehicle")
+        self._side = RightLeft.RIGHT if value == "rightElbow" else RightLeft.LEFT
+        self._lumbar = LumbarAxis(value.removeprefix("lumbar")) if self.is_lumbar else None
+        vehicle = ("vehicleX", "vehicleY", "vehicleTheta")
+        self._vehicle_index = vehicle.index(value) if self.is_vehicle else -1
 
     @property
     def side(self) -> RightLeft:
         """The arm of an elbow axis."""
-        return RightLeft.RIGHT if self is RedundantAxis.RIGHT_ELBOW else RightLeft.LEFT
+        return self._side
 
     @property
     def lumbar(self) -> LumbarAxis:
-        return LumbarAxis(self.value.removeprefix("lumbar"))
+        """The waist angle of a lumbar axis (ValueError for other axes)."""
+        if self._lumbar is None:
+            raise ValueError(f"{self.value} is not a waist axis")
+        return self._lumbar
 
     @property
     def vehicle_index(self) -> int:
-        return ("vehicleX", "vehicleY", "vehicleTheta").index(self.value)
+        """0, 1, 2 for a vehicle axis's x, y, θ (ValueError for other axes)."""
+        if self._vehicle_index < 0:
+            raise ValueError(f"{self.value} is not a vehicle axis")
+        return self._vehicle_index
 
 
 def elbow_axis(side: RightLeft) -> RedundantAxis:
