@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 
 from controller.model import collision_kernel as ck
-from controller.model import jit
+from controller.model import jit, joint_chain
 from controller.model.collision import CollisionDistances
 from controller.model.collision_pairs import robot_distances
 from controller.model.kinematics import Kinematics
@@ -66,7 +66,7 @@ def test_placements_are_pinocchios(robot_id: str) -> None:
         jac = data.J
         for v in range(kin.nv):
             axis, origin = kernel.columns[v]
-            if kernel.column_kind[v] == ck.REVOLUTE:  # (v_O, w) = (origin x axis, axis)
+            if kernel.column_kind[v] == joint_chain.REVOLUTE:  # (v_O, w) = (origin x axis, axis)
                 np.testing.assert_allclose(jac[3:, v], axis, atol=1e-12)
                 np.testing.assert_allclose(jac[:3, v], np.cross(origin, axis), atol=1e-12)
             else:

@@ -327,7 +327,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         collision_kernel.update,
         collision_kernel.jacobian_rows,
         damper_kernel.collision_rows,
-        elbow.elbow_kernel,
+        elbow.elbow_rows,
         joint_box.box_bounds,
         tasks._pose_error,
     )

@@ -6,9 +6,9 @@ closest ones. Through coal and NumPy that costs ~190 µs per cycle on SmartPal V
 pairs; most of it Python reading coal's results one by one and small-array overhead); this
 module does the same work in compiled code (~13 µs for the distances):
 
-* :func:`update`: the joint placements of the configuration (the Pinocchio model's own
-  joint placements and 1-dof revolute/prismatic joints), each joint's world axis and origin
-  (its Jacobian column), every shape's world placement, then closed forms per pair kind:
+* :func:`update`: the joint placements of the configuration and each joint's world axis and
+  origin (its Jacobian column; :func:`controller.model.joint_chain.forward`), every shape's
+  world placement, then closed forms per pair kind:
   capsule/sphere pairs (closest points of two segments), capsule/sphere–box (exact minimum
   of the piecewise quadratic squared distance along the segment; golden-section search on
   the signed distance when the segment enters the box), anything–half-space (the lowest
@@ -35,32 +35,14 @@ import numpy as np
 import pinocchio as pin
 
 from controller.model.jit import jit
+from controller.model.joint_chain import PRISMATIC, JointChain, Unsupported, compose, forward
 
 #: Shape kinds of the kernels (a sphere is a capsule of length 0).
 CAPSULE, BOX, HALFSPACE = 0, 1, 2
-#: Joint kinds: the column of a revolute joint turns points about its axis, a prismatic one
-#: moves them along it.
-REVOLUTE, PRISMATIC = 0, 1
 #: Pairs :func:`update` computes, and pairs left to the caller (box–box).
 KERNEL, OTHER = 0, 1
 #: Golden-section steps for a segment inside a box (the interval shrinks 0.618x per step).
 GOLDEN_STEPS = 60
-
-
-@jit
-def _compose(world: np.ndarray, frame: np.ndarray, out: np.ndarray) -> None:
-    """``out`` := ``world`` ∘ ``frame``, placements as rotation rows 0-2 and translation
-    row 3 (``frame`` may have more rows: only 0-3 are read)."""
-    for a in range(3):
-        s = world[3, a]
-        for b in range(3):
-            s += world[a, b] * frame[3, b]
-        out[3, a] = s
-        for b in range(3):
-            s = 0.0
-            for c in range(3):
-                s += world[a, c] * frame[c, b]
-            out[a, b] = s
 
 
 # ------------------------------------------------------------------------------- update
@@ -94,37 +76,9 @@ def update(
       ``size`` per shape: capsule (radius, half length), sphere (radius, 0), box (half
       sides), half-space (normal, offset) in its own frame. ``OTHER`` rows are left as
       they are."""
-    r = np.empty((4, 3))  # a joint's placement before its motion
-    for j in range(1, joint_int.shape[0]):
-        p, kind, v = joint_int[j, 0], joint_int[j, 1], joint_int[j, 2]
-        _compose(joint_world[p], joint_frame[j], r)
-        x = q[v]
-        ux, uy, uz = joint_frame[j, 4, 0], joint_frame[j, 4, 1], joint_frame[j, 4, 2]
-        for a in range(3):
-            columns[v, 0, a] = r[a, 0] * ux + r[a, 1] * uy + r[a, 2] * uz
-        column_kind[v] = kind
-        for a in range(3):
-            joint_world[j, 3, a] = r[3, a]
-        if kind == REVOLUTE:
-            co, si = math.cos(x), math.sin(x)
-            t = 1.0 - co
-            m00, m01, m02 = co + ux * ux * t, ux * uy * t - uz * si, ux * uz * t + uy * si
-            m10, m11, m12 = uy * ux * t + uz * si, co + uy * uy * t, uy * uz * t - ux * si
-            m20, m21, m22 = uz * ux * t - uy * si, uz * uy * t + ux * si, co + uz * uz * t
-            for a in range(3):
-                r0, r1, r2 = r[a, 0], r[a, 1], r[a, 2]
-                joint_world[j, a, 0] = r0 * m00 + r1 * m10 + r2 * m20
-                joint_world[j, a, 1] = r0 * m01 + r1 * m11 + r2 * m21
-                joint_world[j, a, 2] = r0 * m02 + r1 * m12 + r2 * m22
-        else:
-            for a in range(3):
-                joint_world[j, 3, a] += columns[v, 0, a] * x
-                for b in range(3):
-                    joint_world[j, a, b] = r[a, b]
-        for a in range(3):
-            columns[v, 1, a] = joint_world[j, 3, a]
+    forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
     for g in range(shape_int.shape[0]):
-        _compose(joint_world[shape_int[g, 0]], shape_frame[g], shape_world[g])
+        compose(joint_world[shape_int[g, 0]], shape_frame[g], shape_world[g])
     kinds = shape_int[:, 1]
     world_rot = shape_world[:, :3]
     world_pos = shape_world[:, 3]
@@ -522,10 +476,6 @@ def jacobian_rows(
 
 
 # ---------------------------------------------------------------------------------- model
-class Unsupported(ValueError):
-    """A joint or shape the kernels do not handle (the caller falls back to coal)."""
-
-
 def _shape_row(geometry: Any) -> tuple[int, np.ndarray]:
     """Kind and ``size`` row (see :func:`update`) of a coal geometry."""
     size = np.zeros(4)
@@ -560,28 +510,7 @@ class CompiledPairs:
     ``segments``, ``pairs`` (shape 1, shape 2, ``KERNEL``/``OTHER``)."""
 
     def __init__(self, model: pin.Model, geometry: pin.GeometryModel, pairs: np.ndarray):
-        nj = model.njoints
-        data = model.createData()
-        pin.forwardKinematics(model, data, pin.neutral(model))
-        self.joint_int = np.zeros((nj, 3), dtype=np.int64)
-        self.joint_frame = np.zeros((nj, 5, 3))
-        for j in range(1, nj):
-            joint = model.joints[j]
-            if joint.nq != 1 or joint.nv != 1 or joint.idx_q != joint.idx_v:
-                raise Unsupported(f"joint {model.names[j]!r} ({joint.shortname()}) is not 1-dof")
-            motion = np.asarray(data.joints[j].S).ravel()
-            linear, angular = motion[:3], motion[3:]
-            if np.linalg.norm(angular) > 0.5 and np.linalg.norm(linear) < 1e-12:
-                kind, axis = REVOLUTE, angular
-            elif np.linalg.norm(linear) > 0.5 and np.linalg.norm(angular) < 1e-12:
-                kind, axis = PRISMATIC, linear
-            else:
-                raise Unsupported(f"joint {model.names[j]!r} ({joint.shortname()})")
-            self.joint_int[j] = model.parents[j], kind, joint.idx_v
-            placement = model.jointPlacements[j]
-            self.joint_frame[j, :3] = placement.rotation
-            self.joint_frame[j, 3] = placement.translation
-            self.joint_frame[j, 4] = axis
+        chain = JointChain(model)
         objects = geometry.geometryObjects
         ng = len(objects)
         self.shape_int = np.zeros((ng, 2), dtype=np.int64)
@@ -600,11 +529,9 @@ class CompiledPairs:
         #: Rows coal computes (box–box pairs).
         self.other = np.flatnonzero(boxes)
         # work arrays
-        self.joint_world = np.zeros((nj, 4, 3))
-        self.joint_world[0, :3] = np.eye(3)
-        nv = model.nv
-        self.columns = np.zeros((nv, 2, 3))
-        self.column_kind = np.zeros(nv, dtype=np.int64)
+        self.joint_int, self.joint_frame = chain.joint_int, chain.joint_frame
+        self.joint_world, self.columns = chain.joint_world, chain.columns
+        self.column_kind = chain.column_kind
         self.shape_world = np.zeros((ng, 4, 3))
         #: Per capsule or sphere: segment end points and radius [m] (see :func:`_segments`).
         self.segments = np.zeros((ng, 7))

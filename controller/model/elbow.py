@@ -39,11 +39,12 @@ Degenerate cases
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from controller.model.jit import jit
+from controller.model.joint_chain import compose, forward
 
 #: Distance [m] of the elbow from the shoulder-wrist line below which the gradient is clamped.
 MIN_OFFSET = 1e-6
@@ -51,9 +52,9 @@ MIN_OFFSET = 1e-6
 POLE_EPS = 1e-12
 
 
-@dataclass(frozen=True)
-class Swivel:
-    """Elbow angle [rad] with its gradient w.r.t. the three points [rad/m]."""
+class Swivel(NamedTuple):
+    """Elbow angle [rad] with its gradient w.r.t. the three points [rad/m] (a named tuple:
+    built every cycle per arm, several times cheaper than a frozen dataclass)."""
 
     angle: float
     grad_shoulder: np.ndarray
@@ -223,3 +224,44 @@ def elbow_kernel(
             total += (qz * gx - qx * gz) * jac[4, col]
             total += (qx * gy - qy * gx) * jac[5, col]
         row[col] = total
+
+
+@jit
+def elbow_rows(
+    q: np.ndarray,
+    rows: np.ndarray,
+    values: np.ndarray,
+    joint_int: np.ndarray,
+    joint_frame: np.ndarray,
+    joint_world: np.ndarray,
+    columns: np.ndarray,
+    column_kind: np.ndarray,
+    frame_joint: np.ndarray,
+    frame_local: np.ndarray,
+    directions: np.ndarray,
+    jac: np.ndarray,
+    arm_columns: np.ndarray,
+    counts: np.ndarray,
+    masks: np.ndarray,
+) -> None:
+    """Every arm's elbow at ``q`` [rad, m] in one call, without reading placements back from
+    Pinocchio: the joints' placements (:func:`~controller.model.joint_chain.forward`, its
+    five arrays after ``rows`` and ``values``), then per arm ``i`` its base rotation and
+    shoulder, elbow and wrist points from ``frame_joint[i]`` (the joints carrying the arm
+    base, shoulder, elbow and wrist frames) and ``frame_local[i]`` (those frames' placements
+    on their joints, 4 x 4 x 3), and :func:`elbow_kernel` into ``rows[i]`` and
+    ``values[i]``. ``arm_columns[i, :counts[i]]`` and ``masks[i, :, :counts[i]]`` are that
+    call's ``columns`` and ``masks``, ``directions[i]`` its forward and down directions."""
+    forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
+    placement = np.empty((4, 3))
+    base = np.empty((3, 3))
+    points = np.empty((3, 3))
+    for i in range(frame_joint.shape[0]):
+        compose(joint_world[frame_joint[i, 0]], frame_local[i, 0], placement)
+        base[:, :] = placement[:3]
+        for k in range(3):
+            compose(joint_world[frame_joint[i, k + 1]], frame_local[i, k + 1], placement)
+            points[k, :] = placement[3]
+        n = counts[i]
+        cols, arm_masks = arm_columns[i, :n], masks[i, :, :n]
+        elbow_kernel(points, base, directions[i], jac, cols, arm_masks, rows[i], values[i])

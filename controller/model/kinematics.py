@@ -21,7 +21,8 @@ and Jacobian are computed at most once per :meth:`Kinematics.update` however man
 constraints and motions ask (issue 14); the composite waist rows once for good. Arrays
 returned from the cache are read-only: copy before modifying. With compiled kernels
 (:mod:`controller.model.jit`) the elbow's angle, offset and Jacobian row come from one call
-of :func:`~controller.model.elbow.elbow_kernel`, from the world Jacobian the update left.
+of :func:`~controller.model.elbow.elbow_rows` for all arms (its own forward kinematics, no
+placements read back from Pinocchio), with the world Jacobian the update left.
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ import pinocchio as pin
 
 from controller.conversions import offset_to_se3
 from controller.model import jit
-from controller.model.elbow import Swivel, elbow_kernel, swivel
+from controller.model.elbow import Swivel, elbow_rows, swivel
+from controller.model.joint_chain import JointChain, Unsupported
 from controller.model.robot import Robot
 from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
 
@@ -102,23 +104,23 @@ class Kinematics:
         self._lumbar_rows: dict[LumbarAxis, np.ndarray] = {}
         self.model = model
         self.data = model.createData()
-        #: With compiled kernels: per arm its columns, which of them move the shoulder, elbow
-        #: and wrist points, and buffers (see :func:`controller.model.elbow.elbow_kernel`).
-        self._elbow_kernel: dict[RightLeft, tuple[np.ndarray, ...]] = {}
-        if jit.available():
-            column_joint = {model.joints[j].idx_v: j for j in range(1, model.njoints)}
-            for side, (_, *points) in self._elbow_frames.items():
-                cols = self._units[UnitType[f"{side.name}_ARM"]].astype(np.int64)
-                supports = [set(model.supports[model.frames[f].parentJoint]) for f in points]
-                masks = np.array(
-                    [[float(column_joint[c] in moves) for c in cols.tolist()] for moves in supports]
-                )
-                directions = np.array(self._elbow_dirs[side])  # forward, down (arm base)
-                self._elbow_kernel[side] = (cols, masks, np.zeros((3, 3)), directions, np.zeros(2))
+        #: With compiled kernels: the arguments of :func:`~controller.model.elbow.elbow_rows`
+        #: after its outputs, the arms in their order, and its values (angle, offset) per arm.
+        self._elbow_args: tuple[np.ndarray, ...] | None = None
+        self._elbow_sides = list(self._elbow_frames)
+        self._elbow_values = np.zeros((len(self._elbow_sides), 2))
+        self._elbows_done = False
+        if jit.available() and self._elbow_sides:
+            try:
+                chain = JointChain(model)
+            except Unsupported:
+                chain = None
+            if chain is not None:
+                self._elbow_args = self._elbow_arrays(chain)
         self._q = pin.neutral(model)
         self.update(self._q)
-        for side in self._elbow_kernel:  # compile (or load) now, not in a control cycle
-            self._compute_swivel(side)
+        if self._elbow_args is not None:  # compile (or load) now, not in a control cycle
+            self._update_elbows()
         self._original_theta = 0.0
         self._set_original(self.data.oMf[self._body_frame].copy())
 
@@ -148,12 +150,13 @@ class Kinematics:
     # -------------------------------------------------------------------------- update
     def update(self, q: np.ndarray) -> None:
         """Compute placements and Jacobians for configuration ``q`` (SI, length ``nv``)."""
-        self._q = np.asarray(q, dtype=float)
+        self._q = np.ascontiguousarray(q, dtype=float)
         pin.computeJointJacobians(self.model, self.data, self._q)
         pin.updateFramePlacements(self.model, self.data)
         self._oMf = self.data.oMf  # a live view of the placements: each access builds one
         self._elbow_cache.clear()
         self._elbow_jac_cache.clear()
+        self._elbows_done = False
         self._vehicle_cache = None
 
     @property
@@ -269,6 +272,10 @@ class Kinematics:
         return cached
 
     def _compute_swivel(self, side: RightLeft) -> Swivel:
+        if self._elbow_args is not None:
+            if not self._elbows_done:
+                self._update_elbows()
+            return self._elbow_cache[side]
         # The swivel angle is built from dot and cross products only, so it is the same in
         # any frame: rotate the two reference directions (2 products) rather than the three
         # points, and the gradients come out in world axes, as the frame Jacobians are.
@@ -276,23 +283,54 @@ class Kinematics:
         forward, down = self._elbow_dirs[side]
         p = self.data.oMf
         r_base = p[base].rotation
-        compiled = self._elbow_kernel.get(side)
-        if compiled is None:
-            return swivel(
-                p[fs].translation,
-                p[fe].translation,
-                p[fw].translation,
-                r_base @ forward,
-                r_base @ down,
-            )
-        # compiled: the angle, the offset and the Jacobian row in one call (no gradients)
-        cols, masks, points, directions, values = compiled
-        points[0], points[1], points[2] = p[fs].translation, p[fe].translation, p[fw].translation
-        row = np.zeros(self.nv)
-        elbow_kernel(points, r_base, directions, self.data.J, cols, masks, row, values)
-        row.flags.writeable = False
-        self._elbow_jac_cache[side] = row
-        return Swivel(float(values[0]), _NO_GRADIENT, _NO_GRADIENT, _NO_GRADIENT, float(values[1]))
+        return swivel(
+            p[fs].translation, p[fe].translation, p[fw].translation, r_base @ forward, r_base @ down
+        )
+
+    def _elbow_arrays(self, chain: JointChain) -> tuple[np.ndarray, ...]:
+        """:func:`~controller.model.elbow.elbow_rows`'s arguments for this model's arms: the
+        chain's arrays, each arm's four frames (arm base, shoulder, elbow, wrist) as their
+        joint and placement on it, directions, columns and which of them move each point."""
+        model, sides = self.model, self._elbow_sides
+        n = len(sides)
+        width = max(len(self._units[UnitType[f"{side.name}_ARM"]]) for side in sides)
+        frame_joint = np.zeros((n, 4), dtype=np.int64)
+        frame_local = np.zeros((n, 4, 4, 3))
+        directions = np.zeros((n, 2, 3))
+        arm_columns = np.zeros((n, width), dtype=np.int64)
+        counts = np.zeros(n, dtype=np.int64)
+        masks = np.zeros((n, 3, width))
+        column_joint = {model.joints[j].idx_v: j for j in range(1, model.njoints)}
+        for i, side in enumerate(sides):
+            for k, fid in enumerate(self._elbow_frames[side]):
+                frame = model.frames[fid]
+                frame_joint[i, k] = frame.parentJoint
+                frame_local[i, k, :3] = frame.placement.rotation
+                frame_local[i, k, 3] = frame.placement.translation
+            directions[i] = self._elbow_dirs[side]  # forward, down (arm base)
+            cols = self._units[UnitType[f"{side.name}_ARM"]]
+            counts[i] = len(cols)
+            arm_columns[i, : len(cols)] = cols
+            for k, fid in enumerate(self._elbow_frames[side][1:]):
+                moves = set(model.supports[model.frames[fid].parentJoint])
+                masks[i, k, : len(cols)] = [column_joint[c] in moves for c in cols.tolist()]
+        return (
+            *chain.arrays, frame_joint, frame_local, directions, self.data.J,
+            arm_columns, counts, masks,
+        )  # fmt: skip
+
+    def _update_elbows(self) -> None:
+        """Every arm's elbow angle, offset and Jacobian row in one compiled call (cached)."""
+        assert self._elbow_args is not None
+        rows = np.zeros((len(self._elbow_sides), self.nv))
+        values = self._elbow_values
+        elbow_rows(self._q, rows, values, *self._elbow_args)
+        rows.flags.writeable = False
+        none, sides = _NO_GRADIENT, self._elbow_sides
+        for side, (angle, offset), row in zip(sides, values.tolist(), rows, strict=True):
+            self._elbow_cache[side] = Swivel(angle, none, none, none, offset)
+            self._elbow_jac_cache[side] = row
+        self._elbows_done = True
 
     def elbow_angle(self, side: RightLeft) -> float:
         """Elbow (swivel) angle [rad]; see :mod:`controller.model.elbow` for the definition."""
