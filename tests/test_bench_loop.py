@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from tests.support import run_tool
 
-SHORT = ("--seconds", "0.5", "--rate", "200", "--no-realtime")
+SHORT = ("--seconds", "0.5", "--rate", "200", "--no-realtime", "--spread-seconds", "0.2")
 
 
 def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs():
@@ -45,6 +45,11 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         assert 0.0 <= run["collision"]["rows_active_pct"] <= 100.0
         assert {"idle", "hand line", "arms close"} <= set(run["segments"])
         assert sum(seg["cycles"] for seg in run["segments"].values()) == 100
+        moving = [seg for name, seg in run["segments"].items() if seg["cycles"] and name != "idle"]
+        assert moving and all(set(seg["pieces_p50"]) == set(pieces) for seg in moving)
+        spread = run["identical_work_cpu_us"]
+        assert 0 < spread["p50"] <= spread["p99"] and spread["p99_over_p50"] >= 1.0
+    assert "piece medians by segment" in out and "identical work" in out
     assert "per cycle [us]" in out and "median of 2 runs" in out
     assert "collision rows active in" in out and "by segment" in out
 
@@ -54,4 +59,5 @@ def test_bench_loop_without_the_breakdown_still_reports_the_cycle():
     out = "\n".join(lines)
     (run,) = result["per_run"]
     assert run["cycles"] == 100 and run["pieces_us"] == {}
+    assert all("pieces_p50" not in seg for seg in run["segments"].values())
     assert "per cycle [us]" not in out and "collision rows active in" in out

@@ -4,6 +4,7 @@
 Usage: python tools/bench_loop.py [--robot smartpal5] [--rate 1000] [--seconds 60]
                                   [--runs 1] [--no-realtime] [--no-breakdown]
                                   [--planner process|thread] [--gc slack|automatic]
+                                  [--spread-seconds 5]
 
 The mix repeats: hand line out and back, elbow swing with the hand held, joint PTP out and
 back, waist bend with the hands held, vehicle out and back, both hands towards each other
@@ -22,10 +23,15 @@ cycle's cost without the time it spent off the CPU, steadier than the wall clock
 machine), overruns (a cycle ending after the next deadline) and cycles woken
 late by more than half a period, the per-piece breakdown of the compute time (median and p99
 per cycle [µs]: read, kinematics, motion, collision (distances and rows), QP build, QP solve,
-write, publish, other), the share of cycles with collision rows active (in the whole run and
+write, publish, other; and each piece's median per segment), the share of cycles with collision rows active (in the whole run and
 during "arms close", where also the share with rows between the two arms), and the compute
 time of the cycles with rows active. With ``--runs N`` the run repeats N times and the medians
 of their compute p50/p99 and late counts follow. The last line is a JSON object.
+
+After each run, the last cycle's kinematics update and IK solve run again with the same
+inputs for ``--spread-seconds`` in the same kind of loop: their thread CPU time p50/p99
+is the machine's own spread for identical work (on this shared 2-core VM p99/p50 was
+1.5-2.5 for the same solve), the peer the mix's p99/p50 is compared with.
 
 The breakdown wraps the pieces with timers from outside (nothing in the core knows): about
 1 µs of overhead per piece, included in the compute time; ``--no-breakdown`` leaves them out
@@ -168,13 +174,20 @@ class Breakdown:
 
     def segment_summary(self, names: list[str]) -> dict[str, dict[str, float]]:
         """Compute time [µs] p50/p99, the step's thread CPU time p50/p99 (``cpu_p50``,
-        ``cpu_p99``) and cycles per segment of the mix ("idle": no motion)."""
+        ``cpu_p99``), cycles and (with the timers) each piece's median (``pieces_p50``) per
+        segment of the mix ("idle": no motion)."""
         rows = self.rows[: self.n]
         out = {}
         for k, name in [(-1, "idle"), *((names.index(n), n) for n in dict.fromkeys(names))]:
             mine = rows[rows[:, SEGMENT] == k]
             cpu = {f"cpu_{key}": v for key, v in _percentiles(mine[:, CPU] / 1e3).items()}
             out[name] = {**_percentiles(mine[:, COMPUTE] / 1e3), **cpu, "cycles": len(mine)}
+            if self.wrap and len(mine):
+                medians = np.median(mine[:, : len(PIECES) + 1], axis=0) / 1e3
+                out[name]["pieces_p50"] = {
+                    piece: round(float(m), 1)
+                    for piece, m in zip((*PIECES, "other"), medians, strict=True)
+                }
         return out
 
     def cpu_summary(self) -> dict[str, float]:
@@ -211,6 +224,38 @@ def _percentiles(values: np.ndarray) -> dict[str, float]:
 
 def _pct(part: int, whole: int) -> float:
     return round(100.0 * part / whole, 1) if whole else 0.0
+
+
+def identical_work(core: MotionCore, args: argparse.Namespace) -> dict[str, float]:
+    """The machine's own spread: the same kinematics update and IK solve (the cycle where the
+    mix ended, the same inputs every time) repeated in a loop like the mix's, for
+    ``args.spread_seconds``. Thread CPU time per repeat [µs] p50/p99 and their ratio: on a
+    quiet dedicated core the ratio is near 1; what it is here, the mix's p99 carries too."""
+    q, q_cmd, v_cmd = core.q.copy(), core.q_cmd.copy(), core.v_cmd.copy()
+    kin, ik = core.kin, core.ik
+    cycles = int(args.rate * args.spread_seconds)
+    spent = np.zeros(cycles)
+    clock = time.thread_time_ns
+
+    def step(cycle: int, t: float) -> bool:
+        c0 = clock()
+        kin.update(q)
+        ik.solve(q_cmd, v_cmd)
+        spent[cycle % cycles] = clock() - c0
+        return True
+
+    collector = SlackCollector() if args.gc == "slack" else None
+    loop = FixedRateLoop(args.rate, step, realtime=not args.no_realtime, slack=collector)
+    if collector is not None:
+        collector.start()
+    try:
+        loop.run(max_cycles=cycles)
+    finally:
+        if collector is not None:
+            collector.stop()
+    out = _percentiles(spent / 1e3)
+    out["p99_over_p50"] = round(out["p99"] / out["p50"], 2) if out["p50"] else 0.0
+    return out
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -314,6 +359,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     runtime.cleanup()
     if line_check is not None:
         line_check.close()
+    spread = identical_work(core, args) if args.spread_seconds > 0 else None
     pieces = breakdown.summary()
     rows = breakdown.collision_summary(close)
     by_segment = breakdown.segment_summary(names)
@@ -369,6 +415,19 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             f"{name} {v['cpu_p50']:.0f}/{v['cpu_p99']:.0f}" for name, v in by_segment.items()
         )
     )
+    if pieces:
+        names = [n for n, v in by_segment.items() if "pieces_p50" in v]
+        print("piece medians by segment [us]: " + " ".join(f"{n[:11]:>11s}" for n in names))
+        for piece in (*PIECES, "other"):
+            values = (by_segment[n]["pieces_p50"][piece] for n in names)
+            print(f"  {piece:28s}" + " ".join(f"{v:11.1f}" for v in values))
+    if spread is not None:
+        print(
+            f"identical work (the last cycle's kinematics + IK again with the same inputs, "
+            f"{args.spread_seconds:g} s in the same kind of loop): cpu p50/p99 "
+            f"{spread['p50']:.1f}/{spread['p99']:.1f} us, p99/p50 {spread['p99_over_p50']:.2f} "
+            f"(the mix: {cpu['p99'] / cpu['p50']:.2f}): the machine's spread"
+        )
     gc_figures = None
     if collector is not None:
         gc_figures = {
@@ -393,6 +452,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         **stats,
         "cpu_us_p50": cpu["p50"],
         "cpu_us_p99": cpu["p99"],
+        "identical_work_cpu_us": spread,
         "pieces_us": pieces,
         "collision": rows,
         "segments": by_segment,
@@ -431,6 +491,13 @@ def main() -> int:
         default="slack",
         help="garbage collection: in the loop's slack as the daemon does (default), or "
         "CPython's automatic collection",
+    )
+    parser.add_argument(
+        "--spread-seconds",
+        type=float,
+        default=5.0,
+        help="after each run, repeat one identical kinematics + IK step this long to show "
+        "the machine's own spread of CPU time for the same work (0: skip)",
     )
     args = parser.parse_args()
     if args.runs < 1:
