@@ -416,3 +416,17 @@ def test_compiled_elbow_equals_the_python_swivel(monkeypatch: pytest.MonkeyPatch
                 np.testing.assert_allclose(
                     compiled.elbow_jacobian(side), python.elbow_jacobian(side), atol=1e-9
                 )
+
+
+def test_an_array_changed_after_the_update_does_not_change_the_elbow() -> None:
+    """The elbows are computed lazily from the configuration of the update, not from the
+    caller's array as it is when they are first asked for."""
+    kin = kinematics("smartpal5")
+    q = random_configuration(kin, np.random.default_rng(4))
+    kin.update(q)
+    reference = kinematics("smartpal5")
+    reference.update(q.copy())
+    q += 0.3  # the caller reuses its array before anyone asks for the elbow
+    for side in kin.arms:
+        assert kin.elbow_angle(side) == reference.elbow_angle(side)
+        np.testing.assert_array_equal(kin.elbow_jacobian(side), reference.elbow_jacobian(side))

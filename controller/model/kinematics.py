@@ -149,8 +149,11 @@ class Kinematics:
 
     # -------------------------------------------------------------------------- update
     def update(self, q: np.ndarray) -> None:
-        """Compute placements and Jacobians for configuration ``q`` (SI, length ``nv``)."""
-        self._q = np.ascontiguousarray(q, dtype=float)
+        """Compute placements and Jacobians for configuration ``q`` (SI, length ``nv``).
+
+        ``q`` is copied: the elbows are computed from it when first asked for, and a caller
+        may change its array before that."""
+        self._q = np.array(q, dtype=float)
         pin.computeJointJacobians(self.model, self.data, self._q)
         pin.updateFramePlacements(self.model, self.data)
         self._oMf = self.data.oMf  # a live view of the placements: each access builds one
