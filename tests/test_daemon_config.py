@@ -75,6 +75,9 @@ def test_set_values_are_yaml(tmp_path: Path):
         ("jara:\n  max_speed_cartesian: [1]\n", "jara.max_speed_cartesian"),
         ("realtime:\n  priority: 10\n  helper_priority: 10\n", "realtime"),
         ("realtime:\n  helper_priority: -1\n", "realtime.helper_priority"),
+        ("realtime:\n  loop_cpus: [-1]\n", "realtime.loop_cpus"),
+        ("realtime:\n  loop_cpus: []\n", "realtime.loop_cpus"),
+        ("realtime:\n  loop_cpus: one\n", "realtime.loop_cpus"),
     ],
 )
 def test_invalid_settings_name_the_file_and_key(tmp_path: Path, text: str, where: str):

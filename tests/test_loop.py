@@ -251,16 +251,18 @@ def test_realtime_is_applied_in_the_calling_thread_and_restored(monkeypatch):
     events: list[tuple[str, int]] = []
     report = realtime.RealtimeReport()
 
-    def fake_apply() -> realtime.RealtimeReport:
+    def fake_apply(cpus=None) -> realtime.RealtimeReport:
         events.append(("apply", threading.get_ident()))
+        events.append(("cpus", cpus))
         return report
 
     monkeypatch.setattr(realtime, "apply_realtime", fake_apply)
     monkeypatch.setattr(realtime, "restore", lambda r: events.append(("restore", id(r))))
-    loop = FixedRateLoop(1000, lambda c, t: events.append(("step", c)), realtime=True)
+    loop = FixedRateLoop(1000, lambda c, t: events.append(("step", c)), realtime=True, cpus=[0])
     loop.run(max_cycles=2)
     assert events == [
         ("apply", threading.get_ident()),
+        ("cpus", [0]),
         ("step", 0),
         ("step", 1),
         ("restore", id(report)),
@@ -271,7 +273,7 @@ def test_realtime_is_applied_in_the_calling_thread_and_restored(monkeypatch):
 def test_realtime_is_restored_when_the_step_raises(monkeypatch):
     restored: list[object] = []
     report = realtime.RealtimeReport()
-    monkeypatch.setattr(realtime, "apply_realtime", lambda: report)
+    monkeypatch.setattr(realtime, "apply_realtime", lambda cpus=None: report)
     monkeypatch.setattr(realtime, "restore", restored.append)
 
     def boom(cycle: int, t: float) -> None:

@@ -209,6 +209,50 @@ def test_refused_helper_threads_are_reported(monkeypatch, caplog):
         thread.join()
 
 
+def _in_a_thread(fn):
+    """``fn()``'s result, run in a throwaway thread (affinity belongs to a thread: the pytest
+    thread's is never touched)."""
+    out: list = []
+    thread = threading.Thread(target=lambda: out.append(fn()))
+    thread.start()
+    thread.join()
+    return out[0]
+
+
+def test_the_loop_thread_is_pinned_and_restored(monkeypatch):
+    monkeypatch.setattr(os, "sched_setscheduler", lambda *a: None)
+    cpu = min(os.sched_getaffinity(0))
+
+    def pin_and_restore():
+        before = os.sched_getaffinity(0)
+        report = apply_realtime(lock_memory=False, freeze_gc=False, cpus=[cpu])
+        during = os.sched_getaffinity(0)
+        restore(report)
+        return before, report, during, os.sched_getaffinity(0)
+
+    before, report, during, after = _in_a_thread(pin_and_restore)
+    assert report.cpus == [cpu] and during == {cpu} and not report.messages
+    assert report.previous_cpus == sorted(before) and after == before
+    assert os.sched_getaffinity(0) == before  # this thread never moved
+
+
+@pytest.mark.parametrize("cpu", [-1, 4095])
+def test_a_cpu_that_cannot_be_had_warns_and_leaves_the_affinity(monkeypatch, caplog, cpu):
+    monkeypatch.setattr(os, "sched_setscheduler", lambda *a: None)
+    caplog.set_level(logging.WARNING, logger="controller.control.realtime")
+
+    def try_pin():
+        before = os.sched_getaffinity(0)
+        report = apply_realtime(lock_memory=False, freeze_gc=False, cpus=[cpu])
+        return before, report, os.sched_getaffinity(0)
+
+    before, report, after = _in_a_thread(try_pin)
+    assert report.cpus is None and after == before
+    (message,) = report.messages
+    assert f"not pinned to CPU {cpu}" in message and "may run on CPU" in message
+    assert_clean_one_line_warnings(warnings_of(caplog), 1)
+
+
 @pytest.mark.parametrize("unprivileged", [False, True])
 def test_real_call_in_a_child_process(unprivileged: bool):
     """The real system calls, whatever this machine allows, in a throwaway process.

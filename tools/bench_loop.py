@@ -4,7 +4,7 @@
 Usage: python tools/bench_loop.py [--robot smartpal5] [--rate 1000] [--seconds 60]
                                   [--runs 1] [--no-realtime] [--no-breakdown]
                                   [--planner process|thread] [--gc slack|automatic]
-                                  [--spread-seconds 5]
+                                  [--spread-seconds 5] [--loop-cpus 1]
 
 The mix repeats: hand line out and back, elbow swing with the hand held, joint PTP out and
 back, waist bend with the hands held, vehicle out and back, both hands towards each other
@@ -23,8 +23,9 @@ cycle's cost without the time it spent off the CPU, steadier than the wall clock
 machine), overruns (a cycle ending after the next deadline) and cycles woken
 late by more than half a period, the per-piece breakdown of the compute time (median and p99
 per cycle [µs]: read, kinematics, motion, collision (distances and rows), QP build, QP solve,
-write, publish, other; and each piece's median per segment), the share of cycles with collision rows active (in the whole run and
-during "arms close", where also the share with rows between the two arms), and the compute
+write, publish, other; and each piece's median per segment), the share of cycles with
+collision rows active (in the whole run and during "arms close", where also the share with
+rows between the two arms), and the compute
 time of the cycles with rows active. With ``--runs N`` the run repeats N times and the medians
 of their compute p50/p99 and late counts follow. The last line is a JSON object.
 
@@ -172,12 +173,12 @@ class Breakdown:
             return {}
         return {name: _percentiles(rows[:, i]) for i, name in enumerate((*PIECES, "other"))}
 
-    def segment_summary(self, names: list[str]) -> dict[str, dict[str, float]]:
+    def segment_summary(self, names: list[str]) -> dict[str, dict[str, Any]]:
         """Compute time [µs] p50/p99, the step's thread CPU time p50/p99 (``cpu_p50``,
         ``cpu_p99``), cycles and (with the timers) each piece's median (``pieces_p50``) per
         segment of the mix ("idle": no motion)."""
         rows = self.rows[: self.n]
-        out = {}
+        out: dict[str, dict[str, Any]] = {}
         for k, name in [(-1, "idle"), *((names.index(n), n) for n in dict.fromkeys(names))]:
             mine = rows[rows[:, SEGMENT] == k]
             cpu = {f"cpu_{key}": v for key, v in _percentiles(mine[:, CPU] / 1e3).items()}
@@ -245,7 +246,9 @@ def identical_work(core: MotionCore, args: argparse.Namespace) -> dict[str, floa
         return True
 
     collector = SlackCollector() if args.gc == "slack" else None
-    loop = FixedRateLoop(args.rate, step, realtime=not args.no_realtime, slack=collector)
+    loop = FixedRateLoop(
+        args.rate, step, realtime=not args.no_realtime, slack=collector, cpus=args.loop_cpus
+    )
     if collector is not None:
         collector.start()
     try:
@@ -341,6 +344,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         realtime=not args.no_realtime,
         stats_capacity=capacity,
         slack=collector,
+        cpus=args.loop_cpus,
     )
     runtime = tempfile.TemporaryDirectory(prefix="bench-loop-")
     publisher = SnapshotPublisher(
@@ -498,6 +502,13 @@ def main() -> int:
         default=5.0,
         help="after each run, repeat one identical kinematics + IK step this long to show "
         "the machine's own spread of CPU time for the same work (0: skip)",
+    )
+    parser.add_argument(
+        "--loop-cpus",
+        type=lambda text: [int(c) for c in text.split(",")],
+        default=None,
+        help="pin the loop thread to these CPUs (comma-separated), as realtime.loop_cpus "
+        "does in the daemon",
     )
     args = parser.parse_args()
     if args.runs < 1:

@@ -51,6 +51,16 @@ class RealtimeConfig(_Strict):
     #: Run Python's garbage collector only in the control loop's slack, never mid-cycle
     #: (controller.control.collector). Off: CPython's automatic collection.
     collect_in_slack: bool = True
+    #: Pin the loop thread to these CPUs (a core kept free of other work); None: the
+    #: scheduler places it. Refused CPUs leave it unpinned with a warning.
+    loop_cpus: list[int] | None = None
+
+    @field_validator("loop_cpus")
+    @classmethod
+    def _cpu_numbers(cls, cpus: list[int] | None) -> list[int] | None:
+        if cpus is not None and (not cpus or min(cpus) < 0):
+            raise ValueError("realtime.loop_cpus: CPU numbers (0 or more), at least one, or null")
+        return cpus
 
     @model_validator(mode="after")
     def _helpers_below_the_loop(self) -> RealtimeConfig:

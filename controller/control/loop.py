@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 
 import numpy as np
 
@@ -134,6 +134,7 @@ class FixedRateLoop:
     ``spin_us``: busy-wait for the last microseconds before each deadline (costs a CPU).
     ``stats_capacity``: cycles kept by :attr:`stats` (default 10 s worth).
     ``slack``: called after each step with the time left before the next deadline [ns].
+    ``cpus``: with ``realtime``, pin the thread calling :meth:`run` to these CPUs.
     ``clock_ns`` and ``sleep`` replace :func:`time.monotonic_ns` and :func:`time.sleep` (tests).
     """
 
@@ -147,6 +148,7 @@ class FixedRateLoop:
         spin_us: float = 0.0,
         stats_capacity: int | None = None,
         slack: Slack | None = None,
+        cpus: Collection[int] | None = None,
         clock_ns: Callable[[], int] = time.monotonic_ns,
         sleep: Callable[[float], None] = time.sleep,
     ):
@@ -163,6 +165,7 @@ class FixedRateLoop:
         self.step = step
         self.slack = slack
         self.realtime = realtime
+        self.cpus = cpus
         self.paced = paced
         capacity = stats_capacity or max(1, math.ceil(DEFAULT_HISTORY_S * rate_hz))
         self.stats = LoopStats(self.period_ns / 1e9, capacity)
@@ -198,7 +201,7 @@ class FixedRateLoop:
         report = None
         try:
             if self.realtime:
-                report = rt.apply_realtime()
+                report = rt.apply_realtime(cpus=self.cpus)
                 self.realtime_report = report
             if self.paced:
                 return self._run_paced(max_cycles)

@@ -371,6 +371,7 @@ def _main(args: argparse.Namespace) -> int:
             cfg.realtime.priority,
             cfg.realtime.lock_memory,
             helper_priority=cfg.realtime.helper_priority,
+            cpus=cfg.realtime.loop_cpus,
         )
         if cfg.realtime.enabled
         else None
