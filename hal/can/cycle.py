@@ -32,7 +32,7 @@ import numpy as np
 from hal.can import pdo
 from hal.can.busload import classic_frame_bits
 from hal.can.cia402 import DriveMaster, Goal, State, decode
-from hal.can.ports import Port
+from hal.can.ports import FrameReader, Port
 from hal.can.supervision import Supervisor
 from hal.interface import HardwareFault
 
@@ -164,6 +164,7 @@ class CycleIO:
         on the others."""
         for port in self.ports:
             self._drain(port)
+        self._drain_ready()
         if deadline is None or 0 not in self._fresh:  # (bytes: cheaper than numpy here)
             return
         waiting = [p for p in self.ports if self._missing(p)]
@@ -186,6 +187,28 @@ class CycleIO:
         for port in waiting:
             if port.fd is None:
                 self._wait(port, deadline)
+        self._drain_ready()
+
+    def _drain_ready(self) -> None:
+        """Buses read one record per peer at a time (:attr:`Port.recv_frames` with a
+        descriptor): read on while ``select`` finds any of them readable (one system call
+        for all the buses when nothing more waits, the usual case)."""
+        partial = {
+            p.fd: p
+            for p in self.ports
+            if p.recv_frames is not None and p.fd is not None and not p.failed
+        }
+        while partial:
+            try:
+                ready = select.select(list(partial), [], [], 0.0)[0]
+            except (OSError, ValueError) as exc:
+                for port in partial.values():
+                    self._receive_failed(port, exc)
+                return
+            if not ready:
+                return
+            for fd in ready:
+                self._drain(partial[fd])
 
     def _missing(self, port: Port) -> bool:
         """Some drive of ``port`` has not sent its TPDO1 yet (and the bus works)."""
@@ -209,6 +232,11 @@ class CycleIO:
         self._drain(port)
 
     def _drain(self, port: Port) -> None:
+        """Decode every frame waiting on ``port`` (no wait)."""
+        reader = port.recv_frames
+        if reader is not None:
+            self._drain_frames(port, reader)
+            return
         poll, table = port.poll, port.table
         fresh, seen, sw, position = self._fresh, self._seen, self.statusword, self.position
         velocity = self.velocity
@@ -238,6 +266,39 @@ class CycleIO:
         port.frames_received += frames
         port.bits += bits
 
+    def _drain_frames(self, port: Port, reader: FrameReader) -> None:
+        """:meth:`_drain` on a bus with :attr:`Port.recv_frames`: every waiting frame in one
+        call, classic data frames as ``(identifier, data)`` (no :class:`can.Message`)."""
+        try:
+            classic, others = reader(port.fd is None)
+        except BUS_ERRORS as exc:
+            self._receive_failed(port, exc)
+            return
+        for msg in others:  # read by recv() before, or not classic data frames
+            self._decode(port, msg)
+        table, fresh, seen = port.table, self._fresh, self._seen
+        sw, position, velocity = self.statusword, self.position, self.velocity
+        tpdo1, tpdo2 = pdo.TPDO1_STRUCT.unpack_from, pdo.TPDO2_STRUCT.unpack_from
+        bits = 0
+        for can_id, data in classic:
+            size = len(data)
+            bits += FRAME_BITS[size if size < 9 else 8]
+            entry = table.get(can_id)
+            if entry is None:
+                continue
+            kind, i = entry
+            if kind is _TPDO1:
+                if size >= 6:
+                    sw[i], position[i] = tpdo1(data)
+                    fresh[i] = seen[i] = 1
+            elif kind is _TPDO2:
+                if size >= 4:
+                    (velocity[i],) = tpdo2(data)
+            else:
+                self._decode_data(kind, i, data)
+        port.frames_received += len(classic)
+        port.bits += bits
+
     def _receive_failed(self, port: Port, exc: BaseException) -> None:
         if not port.failed:
             port.failed = True
@@ -254,10 +315,11 @@ class CycleIO:
                 self.on_fault([Supervisor.bus_off(port.name, "error frame")])
             return
         entry = port.table.get(msg.arbitration_id)
-        if entry is None:
-            return
-        kind, i = entry
-        data = msg.data
+        if entry is not None:
+            self._decode_data(entry[0], entry[1], msg.data)
+
+    def _decode_data(self, kind: pdo.Kind, i: int, data: bytes | bytearray) -> None:
+        """Decode the data of one frame of ``kind`` from drive ``i`` (counted already)."""
         if kind is _TPDO1:
             if len(data) >= 6:
                 self.statusword[i], self.position[i] = pdo.TPDO1_STRUCT.unpack_from(data)
