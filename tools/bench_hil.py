@@ -159,9 +159,11 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     hw.configure()
     line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
     refused: list[str] = []  # moves of the mix the daemon's planning refused (skipped)
-    mix = [make for _, make in segments(core, line_check, refused)]
+    mix = segments(core, line_check, refused)
     done = {"motions": 0, "skipped": 0, "next": 0, "servo_on": 0}
-    ready: list[Motion] = []
+    ready: list[tuple[str, Motion]] = []
+    running = [""]  # the segment whose motion runs: it names the alarms raised meanwhile
+    by_segment: list[str] = []  # "segment: code" of every alarm and warning, in order
     finished = threading.Event()
     wanted = threading.Event()  # the robot is idle: the planner builds the next motion
 
@@ -177,13 +179,14 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             if not ready and core.state == CoreState.READY and core.motion is None:
                 trace.planning += 1
                 core.planning_kinematics()
-                motion = mix[done["next"] % len(mix)](core)
+                name, make = mix[done["next"] % len(mix)]
+                motion = make(core)
                 trace.planning += 1
                 done["next"] += 1
                 if motion is None:
                     done["skipped"] += 1
                 else:
-                    ready.append(motion)
+                    ready.append((name, motion))
 
     def step(cycle: int, t: float) -> bool:
         trace.begin(cycle)
@@ -191,9 +194,14 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             done["servo_on"] = 1
             core.servo_on()
         core.cycle()
+        if len(core.alarms) > len(by_segment):
+            by_segment.extend(
+                f"{running[0] or '-'}: 0x{a.code:03X}" for a in core.alarms[len(by_segment) :]
+            )
         if core.state == CoreState.READY and core.motion is None:
             if ready:
-                core.start(ready.pop())
+                running[0], motion = ready.pop()
+                core.start(motion)
                 done["motions"] += 1
             elif not wanted.is_set():
                 wanted.set()
@@ -330,6 +338,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         print(f"garbage collections in the emulator process: {emulator_gc['gc_collections']}, "
               f"{emulator_gc['gc_total_ms']:.1f} ms in all, longest "
               f"{emulator_gc['gc_longest_ms']:.2f} ms (over its whole life)")  # fmt: skip
+    if by_segment:
+        print("alarms and warnings by segment of the mix: " + ", ".join(by_segment))
     if refused:
         print(f"skipped (refused by the planning): {len(refused)}; first: {refused[0]}")
     causes = print_overruns(overruns)
@@ -349,6 +359,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "seconds": args.seconds,
         "motions": done["motions"],
         "refused": refused[:10],
+        "alarms_by_segment": by_segment[:50],
         "alarms": len(alarms),
         "warnings": len(warnings),
         "lockstep_timeouts": hw.lockstep_timeouts,
