@@ -247,3 +247,32 @@ def test_unix_buses_decode_the_same_through_recv_frames_and_the_api(tmp_path, fa
     finally:
         master.shutdown()
         drive.shutdown()
+
+
+def test_a_bus_readable_with_nothing_to_read_does_not_hold_receive(tmp_path):
+    """A descriptor that stays readable while the bus reads nothing (e.g. a connection it
+    cannot accept) ends receive()'s rounds: it returns, the next cycle tries again."""
+    import threading
+
+    from hal.can.unix_bus import UnixBus
+
+    master = UnixBus(str(tmp_path / "b"))
+    drive = UnixBus(str(tmp_path / "b"))
+    try:
+        port = Port(
+            "b", master, [0], {c: (k, 0) for c, (k, _) in pdo.receive_table([3]).items()},
+            can.Message(arbitration_id=pdo.SYNC, data=b"", is_extended_id=False),
+            can.Message(arbitration_id=0x77F, data=b"\x05", is_extended_id=False),
+        )  # fmt: skip
+        port.recv_frames = lambda drain: ([], [])  # reads nothing; the frame stays queued
+        sup = Supervisor(["a"], [3], ["b"], 0.002, np.full(1, 0.1), 0.006, 0.3, 3)
+        io = CycleIO([port], [3], sup, lambda faults: None, lambda: 0.0, 0.1)
+        drive.send(can.Message(arbitration_id=0x183, data=bytes(6), is_extended_id=False))
+        assert select.select([master], [], [], 0.0)[0] == [master]
+        done = threading.Event()
+        thread = threading.Thread(target=lambda: (io.receive(), done.set()), daemon=True)
+        thread.start()
+        assert done.wait(5.0), "receive() kept polling a bus that brings nothing"
+    finally:
+        master.shutdown()
+        drive.shutdown()

@@ -10,13 +10,17 @@ preallocated RPDO1 frame. One cycle:
 2. :meth:`CycleIO.send_heartbeat`: the master's heartbeat on every bus when due.
 3. :meth:`CycleIO.receive`: drain every bus without blocking and decode TPDO1 (statusword,
    position), TPDO2 (velocity), heartbeats and EMCY; optionally wait until a deadline for
-   the TPDO1 of every drive. Heartbeats and EMCY go to the
+   the TPDO1 of every drive. A bus that offers it (:attr:`Port.recv_frames`: ``unix``) is
+   read without a :class:`can.Message` per classic frame, one record per peer at a time,
+   and one ``select`` over all such buses finds what is left; the others through
+   python-can's API (SocketCAN). Heartbeats and EMCY go to the
    :class:`~hal.can.supervision.Supervisor`; its faults and failed sends/receives go to
    ``on_fault`` at once (the backend quick-stops every drive).
 4. :meth:`CycleIO.decode_states`: each drive's CiA 402 state (only where the statusword
    changed) and summary flags for the per-cycle checks.
 
-The hot path allocates nothing per frame but python-can's own messages: feedback lives in
+The hot path allocates nothing per frame but python-can's own messages (on ``unix`` buses
+an ``(identifier, data)`` tuple instead): feedback lives in
 lists and in byte buffers that numpy views without copying (:attr:`fresh`, :attr:`seen`).
 Used by the backend (:mod:`hal.can.backend`, all drives) and by ``imotion-can`` (one drive).
 """
@@ -192,7 +196,9 @@ class CycleIO:
     def _drain_ready(self) -> None:
         """Buses read one record per peer at a time (:attr:`Port.recv_frames` with a
         descriptor): read on while ``select`` finds any of them readable (one system call
-        for all the buses when nothing more waits, the usual case)."""
+        for all the buses when nothing more waits, the usual case) and a round brings
+        frames (a descriptor that stays readable with nothing to read, e.g. a connection the
+        bus cannot accept, ends it: the next cycle tries again)."""
         partial = {
             p.fd: p
             for p in self.ports
@@ -205,10 +211,11 @@ class CycleIO:
                 for port in partial.values():
                     self._receive_failed(port, exc)
                 return
-            if not ready:
-                return
+            before = sum(partial[fd].frames_received for fd in ready)
             for fd in ready:
                 self._drain(partial[fd])
+            if sum(partial[fd].frames_received for fd in ready) == before:
+                return
 
     def _missing(self, port: Port) -> bool:
         """Some drive of ``port`` has not sent its TPDO1 yet (and the bus works)."""
