@@ -202,6 +202,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             if ready:
                 running[0], motion = ready.pop()
                 core.start(motion)
+                trace.motion_started()
                 done["motions"] += 1
             elif not wanted.is_set():
                 wanted.set()
