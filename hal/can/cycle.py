@@ -239,7 +239,9 @@ class CycleIO:
         self._drain(port)
 
     def _drain(self, port: Port) -> None:
-        """Decode every frame waiting on ``port`` (no wait)."""
+        """Decode the frames waiting on ``port`` (no wait): all of them, but on a bus read
+        one record per peer at a time (:meth:`_drain_frames`), where
+        :meth:`_drain_ready` reads the rest."""
         reader = port.recv_frames
         if reader is not None:
             self._drain_frames(port, reader)
@@ -274,8 +276,9 @@ class CycleIO:
         port.bits += bits
 
     def _drain_frames(self, port: Port, reader: FrameReader) -> None:
-        """:meth:`_drain` on a bus with :attr:`Port.recv_frames`: every waiting frame in one
-        call, classic data frames as ``(identifier, data)`` (no :class:`can.Message`)."""
+        """:meth:`_drain` on a bus with :attr:`Port.recv_frames`: classic data frames as
+        ``(identifier, data)`` (no :class:`can.Message`); one record per peer where the bus
+        has a descriptor (``select`` tells what is left), else every frame waiting."""
         try:
             classic, others = reader(port.fd is None)
         except BUS_ERRORS as exc:
