@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import select
+
 import can
 import numpy as np
 import pytest
@@ -201,3 +203,76 @@ def test_receive_waits_on_every_bus_at_once_where_buses_have_descriptors(tmp_pat
     finally:
         for bus in masters + drives:
             bus.shutdown()
+
+
+@pytest.mark.parametrize("fast", [True, False], ids=["recv_frames", "python-can API"])
+def test_unix_buses_decode_the_same_through_recv_frames_and_the_api(tmp_path, fast):
+    """A unix bus is read with recv_frames (no can.Message per classic frame) and decodes
+    exactly as through python-can's API: every record waiting (here three), TPDO1/TPDO2,
+    heartbeats, EMCY, a bus-off error frame; frames and bits counted alike."""
+    from hal.can.unix_bus import UnixBus
+
+    master = UnixBus(str(tmp_path / "b"))
+    drive = UnixBus(str(tmp_path / "b"), hold_pdos=True)
+    try:
+        port = Port(
+            "b", master, [0, 1, 2],
+            {c: (k, i) for c, (k, i) in pdo.receive_table(NODES).items()},
+            can.Message(arbitration_id=pdo.SYNC, data=b"", is_extended_id=False),
+            can.Message(arbitration_id=0x77F, data=b"\x05", is_extended_id=False),
+        )  # fmt: skip
+        assert port.recv_frames == master.recv_frames
+        if not fast:
+            port.recv_frames = None  # the python-can API (port.poll), as on SocketCAN
+        sup = Supervisor(["a", "b", "c"], NODES, ["b"] * 3, 0.002, np.full(3, 0.1), 0.006, 0.3, 3)
+        faults: list[HardwareFault] = []
+        io = CycleIO([port], NODES, sup, faults.extend, lambda: 7.0, 0.1)
+        io.receive()  # accepts the drive
+        for i, node in enumerate(NODES):
+            drive.send_raw(pdo.TPDO1 + node, pdo.TPDO1_STRUCT.pack(0x27, 100 * (i + 1)))
+        drive.send_raw(pdo.TPDO2 + 5, pdo.TPDO2_STRUCT.pack(-77))
+        drive.send_raw(0x704, b"\x05")  # heartbeat: the held TPDOs go with it, one record
+        drive.send_raw(0x083, b"\x10\x23\x02\0\0\0\0\0")  # EMCY of node 3: a record
+        drive.send(can.Message(arbitration_id=0x40, is_error_frame=True, data=bytes(8)))
+        io.clear_fresh()
+        io.receive()
+        assert io.fresh.all() and io.position == [100, 200, 300] and io.velocity[2] == -77
+        assert io.statusword == [0x27] * 3 and sup.last_heartbeat[1] == 7.0
+        assert [(f.code, f.source) for f in faults] == [
+            (AlarmCode.EMCY, "a"), (AlarmCode.BUS_OFF, "b")
+        ]  # fmt: skip
+        assert port.frames_received == 7 and port.failed
+        assert port.bits == 3 * FRAME_BITS[6] + FRAME_BITS[4] + FRAME_BITS[1] + 2 * FRAME_BITS[8]
+        assert select.select([master], [], [], 0.0)[0] == []  # nothing left unread
+    finally:
+        master.shutdown()
+        drive.shutdown()
+
+
+def test_a_bus_readable_with_nothing_to_read_does_not_hold_receive(tmp_path):
+    """A descriptor that stays readable while the bus reads nothing (e.g. a connection it
+    cannot accept) ends receive()'s rounds: it returns, the next cycle tries again."""
+    import threading
+
+    from hal.can.unix_bus import UnixBus
+
+    master = UnixBus(str(tmp_path / "b"))
+    drive = UnixBus(str(tmp_path / "b"))
+    try:
+        port = Port(
+            "b", master, [0], {c: (k, 0) for c, (k, _) in pdo.receive_table([3]).items()},
+            can.Message(arbitration_id=pdo.SYNC, data=b"", is_extended_id=False),
+            can.Message(arbitration_id=0x77F, data=b"\x05", is_extended_id=False),
+        )  # fmt: skip
+        port.recv_frames = lambda drain: ([], [])  # reads nothing; the frame stays queued
+        sup = Supervisor(["a"], [3], ["b"], 0.002, np.full(1, 0.1), 0.006, 0.3, 3)
+        io = CycleIO([port], [3], sup, lambda faults: None, lambda: 0.0, 0.1)
+        drive.send(can.Message(arbitration_id=0x183, data=bytes(6), is_extended_id=False))
+        assert select.select([master], [], [], 0.0)[0] == [master]
+        done = threading.Event()
+        thread = threading.Thread(target=lambda: (io.receive(), done.set()), daemon=True)
+        thread.start()
+        assert done.wait(5.0), "receive() kept polling a bus that brings nothing"
+    finally:
+        master.shutdown()
+        drive.shutdown()

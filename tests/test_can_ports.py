@@ -9,7 +9,14 @@ import pytest
 
 from hal.can import pdo
 from hal.can.drive_profile import drives_path, load_drive_profile
-from hal.can.ports import bus_kwargs, close_ports, open_ports, poller, split_supervision
+from hal.can.ports import (
+    bus_kwargs,
+    close_ports,
+    frame_reader,
+    open_ports,
+    poller,
+    split_supervision,
+)
 from hal.can.supervision import DriveError
 from tests.support import robot
 
@@ -88,4 +95,20 @@ def test_poller_never_blocks_and_keeps_filters():
         assert msg is not None and msg.arbitration_id == 0x181
     finally:
         for bus in (a, b, filtered):
+            bus.shutdown()
+
+
+def test_frame_reader_only_where_the_bus_offers_it_without_filters(tmp_path):
+    """recv_frames (unix) is the port's fast path; a bus with filters, or an interface
+    without it (virtual, SocketCAN), keeps python-can's API."""
+    from hal.can.unix_bus import UnixBus
+
+    plain = UnixBus(str(tmp_path / "b"))
+    filtered = UnixBus(str(tmp_path / "b"), can_filters=[{"can_id": 0x181, "can_mask": 0x7FF}])
+    virtual = can.Bus(interface="virtual", channel="ports-reader")
+    try:
+        assert frame_reader(plain) == plain.recv_frames
+        assert frame_reader(filtered) is None and frame_reader(virtual) is None
+    finally:
+        for bus in (plain, filtered, virtual):
             bus.shutdown()

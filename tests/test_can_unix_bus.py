@@ -9,7 +9,8 @@ import can
 import pytest
 
 import hal.can  # noqa: F401  (registers interface "unix")
-from hal.can.unix_bus import MAX_RECORD, UnixBus, bus_directory, decode, encode, frames
+from hal.can.unix_bus import UnixBus, bus_directory
+from hal.can.unix_wire import MAX_RECORD, encode, frames
 
 TIMEOUT = 5.0  # [s] bound of every wait (never asserted as a time)
 
@@ -53,21 +54,6 @@ def test_every_other_participant_gets_each_frame(channel):
         assert b.recv(TIMEOUT).arbitration_id == 0x77F
         assert c.recv(TIMEOUT).arbitration_id == 0x77F
         assert a.recv(0.0) is None
-
-
-def test_frame_fields_survive_the_wire():
-    for msg in (
-        can.Message(arbitration_id=0x1ABCDE, is_extended_id=True, data=b"\x01\x02"),
-        can.Message(arbitration_id=0x123, is_extended_id=False, is_remote_frame=True, dlc=4),
-        can.Message(arbitration_id=0x20000080, is_error_frame=True, data=bytes(8)),
-        can.Message(arbitration_id=0x100, is_fd=True, bitrate_switch=True, data=bytes(range(64))),
-    ):
-        back = decode(encode(msg), "x")
-        assert back.equals(msg, timestamp_delta=None, check_channel=False)
-    with pytest.raises(ValueError, match="frame"):
-        decode(b"\x00" * 3, "x")
-    with pytest.raises(ValueError, match="length"):
-        decode(encode(message(0x80, b"\x01")) + b"\x00", "x")
 
 
 def test_fileno_is_selectable(channel):
@@ -229,3 +215,47 @@ def test_records_split_into_frames_and_bad_records_are_dropped(channel, caplog):
         raw.send(record)
         select.select([a], [], [], TIMEOUT)
         assert [(c, d) for _, c, d in a.recv_raw()] == [(0x181, bytes(6)), (0x80, b"")]
+
+
+def test_recv_frames_reads_everything_waiting_without_messages(channel):
+    """recv_frames() (the master's fast path): classic data frames as (identifier, data),
+    in order over several records; other frames, and those recv() had read, as messages."""
+    with UnixBus(channel) as master, UnixBus(channel, hold_pdos=True) as drive:
+        assert master.recv_frames() == ([], []) and master.peers == 1  # accepts the drive
+        for k in range(3):
+            drive.send_raw(0x181 + k, bytes([k] * 6))  # held: one record with the heartbeat
+        drive.send(message(0x701, b"\x05"))
+        drive.send(can.Message(arbitration_id=0x1ABCDE, data=b"\x01"))  # extended
+        drive.send(message(0x081, bytes(8)))
+        assert master.recv(TIMEOUT).arbitration_id == 0x181  # keeps the rest of its record
+        classic, others = master.recv_frames()
+        assert classic == [(0x081, bytes(8))]
+        assert [(m.arbitration_id, m.is_extended_id, bytes(m.data)) for m in others] == [
+            (0x182, False, bytes([1] * 6)), (0x183, False, bytes([2] * 6)),
+            (0x701, False, b"\x05"), (0x1ABCDE, True, b"\x01"),
+        ]  # fmt: skip
+        assert select.select([master], [], [], 0.0)[0] == []
+        assert master.recv_frames() == ([], [])
+
+
+def test_recv_frames_without_drain_reads_one_record_per_peer(channel):
+    """drain=False: one recv per peer; what is left keeps fileno() readable; when no peer
+    had a record, an epoll round accepts new participants; a peer that left is forgotten."""
+    with UnixBus(channel) as master, UnixBus(channel) as a, UnixBus(channel) as b:
+        assert master.recv_frames(False) == ([], []) and master.peers == 2
+        a.send(message(0x181, b"\x01"))
+        a.send(message(0x181, b"\x02"))
+        b.send(message(0x182, b"\x03"))
+        classic, others = master.recv_frames(False)
+        assert sorted(classic) == [(0x181, b"\x01"), (0x182, b"\x03")] and others == []
+        assert select.select([master], [], [], 0.0)[0] == [master]  # a's second record
+        assert master.recv_frames(False) == ([(0x181, b"\x02")], [])
+        assert select.select([master], [], [], 0.0)[0] == []
+        with UnixBus(channel) as late:
+            assert select.select([master], [], [], 0.0)[0] == [master]  # to be accepted
+            assert master.recv_frames(False) == ([], []) and master.peers == 3
+            assert select.select([master], [], [], 0.0)[0] == []
+            late.send(message(0x183))
+            assert master.recv_frames(False) == ([(0x183, b"")], [])
+        b.shutdown()  # b and late left
+        assert master.recv_frames(False) == ([], []) and master.peers == 1

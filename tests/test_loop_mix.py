@@ -43,3 +43,33 @@ def test_arms_close_puts_collision_rows_between_the_two_arms_and_comes_back():
     assert rows_between > 0
     for side, p in start.items():  # back where they started
         assert np.linalg.norm(core.kin.pose(side).translation - p) < 1e-3
+
+
+def test_the_hand_line_is_planned_and_built_as_the_daemon_does():
+    """The mix's hand line is the gateway's checked move (the checked joint path its null
+    space follows), built at the configuration it was planned from; a move the planning
+    refuses is skipped, saying why."""
+    from loop_mix import MixPlanner
+
+    from controller.motion.motions import CartesianMotion
+
+    robot = load_robot("smartpal5")
+    dt = 2e-3
+    core = MotionCore(robot, MujocoBackend(robot, dt), dt)
+    core.servo_on()
+    refused: list[str] = []
+    mix = dict(segments(core, MixPlanner("smartpal5", dt), refused))
+    core.planning_kinematics()
+    motion = mix["hand line"](core)
+    assert isinstance(motion, CartesianMotion) and motion.posture_path is not None
+    assert refused == []
+
+    class Refusing:
+        def line(self, *_args: object) -> tuple[None, str]:
+            return None, "out of reach"
+
+        arms = line
+
+    mix = dict(segments(core, Refusing(), refused))
+    assert mix["hand line"](core) is None and mix[ARMS_CLOSE](core) is None
+    assert refused == ["hand line: out of reach", "arms close: out of reach"]

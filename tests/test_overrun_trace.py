@@ -37,6 +37,11 @@ def test_only_cycles_past_the_period_are_rows_and_each_names_its_largest_part():
     assert [r["cycle"] for r in rows] == [1, 2, 3, 4]
     assert [r["cause"] for r in rows] == ["gc", "off cpu", "late wake", "cpu"]
     assert rows[1]["tpdo_wait_us"] == 400.0 and rows[1]["missing_tpdo1"] == 21
+    assert not any(r["motion_start"] for r in rows)
+    trace._cycle = 3
+    trace.motion_started()  # step 3 starts a motion: 3 and 4 (its first cycle) are marked
+    rows = trace.overruns(PERIOD, 0.4e-3, latency, compute)
+    assert [r["motion_start"] for r in rows] == [False, False, True, True]
     counts = print_overruns(rows)
     assert set(counts) == set(CAUSES) and sum(counts.values()) == 4
 

@@ -6,29 +6,30 @@ Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,
                                  [--planner process|thread] [--gc slack|automatic]
                                  [--planner-priority 50] [--no-realtime]
 
-``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By default
-the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`): the
-master runs as on real buses, no lockstep, supervision on its own timing; ``--emulator
-thread`` puts it in this process in lockstep (one GIL for both). The loop runs the motion mix
-of tools/loop_mix.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
-back). Prints cycle compute time (p50/p99/max, read + QP + write), wake latency, deadline
-misses (overruns), alarms, frames per second and load per bus (worst-case bit lengths of the
-frames actually sent and received), the master's own share per cycle (``read()`` +
-``write()``: thread CPU time, i.e. encode, send, receive, decode, supervision without the
-waits; and wall time, waits included), the CPU time per cycle of the emulator process and
-of this process (all threads), the load average, the garbage collections of both processes,
-one row per overrun with what it was made of and its cause (:mod:`overrun_trace`: gc, TPDO
-wait, off CPU, late wake, own CPU), and as the last line a JSON object. The first second
-(servo on: ``activate()`` blocks the loop for its enabling cycles, by design; the first
-motion) is a warm-up, reported apart and not counted. Alarms (FAULT type: the loop stops)
-and warnings (e.g. a motion that ended off its target) are counted apart. As in the daemon,
-the garbage collector runs in the loop's slack (``--gc automatic``: CPython's own) and the
-hand line's reachability check, the only planning that costs milliseconds, runs in a worker
+``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By
+default the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`):
+the master runs as on real buses, no lockstep, supervision on its own timing; ``--emulator
+thread`` puts it in this process in lockstep (one GIL for both). The loop runs the motion
+mix of tools/loop_mix.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
+back, arms close), its Cartesian moves planned and built as the daemon does. Prints cycle
+compute time (p50/p99/max, read + QP + write), wake latency, deadline misses (overruns),
+alarms, frames per second and load per bus (worst-case bit lengths of the frames actually
+sent and received), the master's own share per cycle (``read()`` + ``write()``: thread CPU
+time, i.e. encode, send, receive, decode, supervision without the waits; and wall time,
+waits included), the CPU time per cycle of the emulator process and of this process (all
+threads), the load average, the garbage collections of both processes, one row per overrun
+with what it was made of and its cause (:mod:`overrun_trace`: gc, TPDO wait, off CPU, late
+wake, own CPU), and as the last line a JSON object. The first second (servo on:
+``activate()`` blocks the loop for its enabling cycles, by design; the first motion) is a
+warm-up, reported apart and not counted. Alarms (FAULT type: the loop stops) and warnings
+(e.g. a motion that ended off its target) are counted apart. As in the daemon, the garbage
+collector runs in the loop's slack (``--gc automatic``: CPython's own) and the planning of
+the hand line and arms close, the only planning that costs milliseconds, runs in a worker
 process (``--planner thread``: in the planning thread, sharing the loop's GIL). ``--drives``
 runs another drive profile (e.g. ``config/robots/smartpal5/drives-1khz.yaml``, a bus split
-for 1 kHz). ``--rates`` runs each rate in turn (a fresh emulator each), prints a summary line
-per rate and the highest rate without overruns and alarms; the JSON line then holds every
-run (``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs the planning
+for 1 kHz). ``--rates`` runs each rate in turn (a fresh emulator each), prints a summary
+line per rate and the highest rate without overruns and alarms; the JSON line then holds
+every run (``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs the planning
 thread under SCHED_FIFO (below the loop's 80 and the emulator's 70): a planner that the host
 deschedules while it holds the GIL stalls the real-time loop for as long. The planning
 thread sleeps until the loop finds the robot idle (no polling).
@@ -84,7 +85,7 @@ def main() -> int:
     parser.add_argument("--planner-priority", type=int, default=0,
                         help="SCHED_FIFO priority of the planning thread (0: normal)")  # fmt: skip
     parser.add_argument("--planner", choices=("process", "thread"), default="process",
-                        help="where the hand line's reachability check runs: a worker "
+                        help="where the mix's Cartesian moves are planned: a worker "
                              "process, as the daemon's gateway plans (default), or the "
                              "planning thread of this process")  # fmt: skip
     parser.add_argument("--gc", choices=("slack", "automatic"), default="slack",
@@ -157,9 +158,12 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     # drives expect the cycle's heartbeat (a loop that stalls lets them time out and stop).
     hw.configure()
     line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
-    mix = [make for _, make in segments(core, line_check)]
+    refused: list[str] = []  # moves of the mix the daemon's planning refused (skipped)
+    mix = segments(core, line_check, refused)
     done = {"motions": 0, "skipped": 0, "next": 0, "servo_on": 0}
-    ready: list[Motion] = []
+    ready: list[tuple[str, Motion]] = []
+    running = [""]  # the segment whose motion runs: it names the alarms raised meanwhile
+    by_segment: list[str] = []  # "segment: code" of every alarm and warning, in order
     finished = threading.Event()
     wanted = threading.Event()  # the robot is idle: the planner builds the next motion
 
@@ -175,13 +179,14 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             if not ready and core.state == CoreState.READY and core.motion is None:
                 trace.planning += 1
                 core.planning_kinematics()
-                motion = mix[done["next"] % len(mix)](core)
+                name, make = mix[done["next"] % len(mix)]
+                motion = make(core)
                 trace.planning += 1
                 done["next"] += 1
                 if motion is None:
                     done["skipped"] += 1
                 else:
-                    ready.append(motion)
+                    ready.append((name, motion))
 
     def step(cycle: int, t: float) -> bool:
         trace.begin(cycle)
@@ -189,9 +194,15 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             done["servo_on"] = 1
             core.servo_on()
         core.cycle()
+        if len(core.alarms) > len(by_segment):
+            by_segment.extend(
+                f"{running[0] or '-'}: 0x{a.code:03X}" for a in core.alarms[len(by_segment) :]
+            )
         if core.state == CoreState.READY and core.motion is None:
             if ready:
-                core.start(ready.pop())
+                running[0], motion = ready.pop()
+                core.start(motion)
+                trace.motion_started()
                 done["motions"] += 1
             elif not wanted.is_set():
                 wanted.set()
@@ -328,6 +339,10 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         print(f"garbage collections in the emulator process: {emulator_gc['gc_collections']}, "
               f"{emulator_gc['gc_total_ms']:.1f} ms in all, longest "
               f"{emulator_gc['gc_longest_ms']:.2f} ms (over its whole life)")  # fmt: skip
+    if by_segment:
+        print("alarms and warnings by segment of the mix: " + ", ".join(by_segment))
+    if refused:
+        print(f"skipped (refused by the planning): {len(refused)}; first: {refused[0]}")
     causes = print_overruns(overruns)
     for name, found in (("alarms", alarms), ("warnings", warnings)):
         if found:
@@ -344,6 +359,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         **cpu_share,
         "seconds": args.seconds,
         "motions": done["motions"],
+        "refused": refused[:10],
+        "alarms_by_segment": by_segment[:50],
         "alarms": len(alarms),
         "warnings": len(warnings),
         "lockstep_timeouts": hw.lockstep_timeouts,

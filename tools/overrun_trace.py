@@ -4,7 +4,8 @@
 the master's ``read()`` (wall time, the part of it spent waiting for TPDOs, drives whose
 TPDO1 had not come) and ``write()`` (wall time), the garbage collections of this process
 (any thread: while the step ran, and between the previous step's end and this one's start,
-where they delay the wake-up) and whether the planning thread was planning. Nothing is
+where they delay the wake-up), whether the planning thread was planning and whether the
+step started a motion (:meth:`CycleTrace.motion_started`). Nothing is
 allocated per cycle (a growing list would add page faults of its own to the figures). After the run,
 :meth:`CycleTrace.overruns` joins these with the loop's wake latency and compute time and
 names, per overrun, the largest part of it:
@@ -44,6 +45,8 @@ class CycleTrace:
         self.gc_in = np.zeros(capacity)
         self.gc_before = np.zeros(capacity)
         self.planning_during = np.zeros(capacity, dtype=bool)
+        #: The step started a motion (its first cycle of motion is the next one).
+        self.started = np.zeros(capacity, dtype=bool)
         #: The master's ``read()`` + ``write()`` per cycle: thread CPU and wall time [s].
         self.master_cpu = np.zeros(capacity)
         self.master_wall = np.zeros(capacity)
@@ -76,6 +79,7 @@ class CycleTrace:
             self.gc_in,
             self.gc_before,
             self.planning_during,
+            self.started,
             self.master_cpu,
             self.master_wall,
         ):
@@ -128,6 +132,11 @@ class CycleTrace:
             self.master_cpu[k] = self._read_cpu + cpu
             self.master_wall[k] = self.read_wall[k] + wall
 
+    def motion_started(self) -> None:
+        """The step started a motion (``MotionCore.start``)."""
+        if self._cycle >= 0:
+            self.started[self._cycle] = True
+
     def end(self) -> None:
         """The step ends."""
         k = self._cycle
@@ -174,6 +183,8 @@ class CycleTrace:
                 "gc_us": round(gc_us, 1),
                 "off_cpu_us": round(off, 1),
                 "planning": bool(self.planning_during[k]),
+                # started a motion, or ran its first cycle
+                "motion_start": bool(self.started[k] or (k > 0 and self.started[k - 1])),
                 "cause": max(parts, key=lambda name: parts[name]),
             })  # fmt: skip
         return rows
@@ -187,12 +198,13 @@ def print_overruns(rows: list[dict[str, Any]], limit: int = 40) -> dict[str, int
     if not rows:
         return counts
     print("overruns [us]:  cycle    wake  compute      cpu     read  tpdo-wait miss   write"
-          "       gc  off-cpu plan cause")  # fmt: skip
+          "       gc  off-cpu plan start cause")  # fmt: skip
     for r in rows[:limit]:
         print(f"  {r['cycle']:12d} {r['wake_us']:7.0f} {r['compute_us']:8.0f} {r['cpu_us']:8.0f} "
               f"{r['read_us']:8.0f} {r['tpdo_wait_us']:10.0f} {r['missing_tpdo1']:4d} "
               f"{r['write_us']:7.0f} {r['gc_us']:8.0f} {r['off_cpu_us']:8.0f} "
-              f"{'yes' if r['planning'] else 'no':>4s} {r['cause']}")  # fmt: skip
+              f"{'yes' if r['planning'] else 'no':>4s} "
+              f"{'yes' if r['motion_start'] else 'no':>5s} {r['cause']}")  # fmt: skip
     if len(rows) > limit:
         print(f"  ... {len(rows) - limit} more")
     print("overrun causes: " + ", ".join(f"{k} {v}" for k, v in counts.items() if v))

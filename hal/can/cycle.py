@@ -10,13 +10,17 @@ preallocated RPDO1 frame. One cycle:
 2. :meth:`CycleIO.send_heartbeat`: the master's heartbeat on every bus when due.
 3. :meth:`CycleIO.receive`: drain every bus without blocking and decode TPDO1 (statusword,
    position), TPDO2 (velocity), heartbeats and EMCY; optionally wait until a deadline for
-   the TPDO1 of every drive. Heartbeats and EMCY go to the
+   the TPDO1 of every drive. A bus that offers it (:attr:`Port.recv_frames`: ``unix``) is
+   read without a :class:`can.Message` per classic frame, one record per peer at a time,
+   and one ``select`` over all such buses finds what is left; the others through
+   python-can's API (SocketCAN). Heartbeats and EMCY go to the
    :class:`~hal.can.supervision.Supervisor`; its faults and failed sends/receives go to
    ``on_fault`` at once (the backend quick-stops every drive).
 4. :meth:`CycleIO.decode_states`: each drive's CiA 402 state (only where the statusword
    changed) and summary flags for the per-cycle checks.
 
-The hot path allocates nothing per frame but python-can's own messages: feedback lives in
+The hot path allocates nothing per frame but python-can's own messages (on ``unix`` buses
+an ``(identifier, data)`` tuple instead): feedback lives in
 lists and in byte buffers that numpy views without copying (:attr:`fresh`, :attr:`seen`).
 Used by the backend (:mod:`hal.can.backend`, all drives) and by ``imotion-can`` (one drive).
 """
@@ -32,7 +36,7 @@ import numpy as np
 from hal.can import pdo
 from hal.can.busload import classic_frame_bits
 from hal.can.cia402 import DriveMaster, Goal, State, decode
-from hal.can.ports import Port
+from hal.can.ports import FrameReader, Port
 from hal.can.supervision import Supervisor
 from hal.interface import HardwareFault
 
@@ -164,6 +168,7 @@ class CycleIO:
         on the others."""
         for port in self.ports:
             self._drain(port)
+        self._drain_ready()
         if deadline is None or 0 not in self._fresh:  # (bytes: cheaper than numpy here)
             return
         waiting = [p for p in self.ports if self._missing(p)]
@@ -186,6 +191,31 @@ class CycleIO:
         for port in waiting:
             if port.fd is None:
                 self._wait(port, deadline)
+        self._drain_ready()
+
+    def _drain_ready(self) -> None:
+        """Buses read one record per peer at a time (:attr:`Port.recv_frames` with a
+        descriptor): read on while ``select`` finds any of them readable (one system call
+        for all the buses when nothing more waits, the usual case) and a round brings
+        frames (a descriptor that stays readable with nothing to read, e.g. a connection the
+        bus cannot accept, ends it: the next cycle tries again)."""
+        partial = {
+            p.fd: p
+            for p in self.ports
+            if p.recv_frames is not None and p.fd is not None and not p.failed
+        }
+        while partial:
+            try:
+                ready = select.select(list(partial), [], [], 0.0)[0]
+            except (OSError, ValueError) as exc:
+                for port in partial.values():
+                    self._receive_failed(port, exc)
+                return
+            before = sum(partial[fd].frames_received for fd in ready)
+            for fd in ready:
+                self._drain(partial[fd])
+            if sum(partial[fd].frames_received for fd in ready) == before:
+                return
 
     def _missing(self, port: Port) -> bool:
         """Some drive of ``port`` has not sent its TPDO1 yet (and the bus works)."""
@@ -209,6 +239,13 @@ class CycleIO:
         self._drain(port)
 
     def _drain(self, port: Port) -> None:
+        """Decode the frames waiting on ``port`` (no wait): all of them, but on a bus read
+        one record per peer at a time (:meth:`_drain_frames`), where
+        :meth:`_drain_ready` reads the rest."""
+        reader = port.recv_frames
+        if reader is not None:
+            self._drain_frames(port, reader)
+            return
         poll, table = port.poll, port.table
         fresh, seen, sw, position = self._fresh, self._seen, self.statusword, self.position
         velocity = self.velocity
@@ -238,6 +275,40 @@ class CycleIO:
         port.frames_received += frames
         port.bits += bits
 
+    def _drain_frames(self, port: Port, reader: FrameReader) -> None:
+        """:meth:`_drain` on a bus with :attr:`Port.recv_frames`: classic data frames as
+        ``(identifier, data)`` (no :class:`can.Message`); one record per peer where the bus
+        has a descriptor (``select`` tells what is left), else every frame waiting."""
+        try:
+            classic, others = reader(port.fd is None)
+        except BUS_ERRORS as exc:
+            self._receive_failed(port, exc)
+            return
+        for msg in others:  # read by recv() before, or not classic data frames
+            self._decode(port, msg)
+        table, fresh, seen = port.table, self._fresh, self._seen
+        sw, position, velocity = self.statusword, self.position, self.velocity
+        tpdo1, tpdo2 = pdo.TPDO1_STRUCT.unpack_from, pdo.TPDO2_STRUCT.unpack_from
+        bits = 0
+        for can_id, data in classic:
+            size = len(data)
+            bits += FRAME_BITS[size if size < 9 else 8]
+            entry = table.get(can_id)
+            if entry is None:
+                continue
+            kind, i = entry
+            if kind is _TPDO1:
+                if size >= 6:
+                    sw[i], position[i] = tpdo1(data)
+                    fresh[i] = seen[i] = 1
+            elif kind is _TPDO2:
+                if size >= 4:
+                    (velocity[i],) = tpdo2(data)
+            else:
+                self._decode_data(kind, i, data)
+        port.frames_received += len(classic)
+        port.bits += bits
+
     def _receive_failed(self, port: Port, exc: BaseException) -> None:
         if not port.failed:
             port.failed = True
@@ -254,10 +325,11 @@ class CycleIO:
                 self.on_fault([Supervisor.bus_off(port.name, "error frame")])
             return
         entry = port.table.get(msg.arbitration_id)
-        if entry is None:
-            return
-        kind, i = entry
-        data = msg.data
+        if entry is not None:
+            self._decode_data(entry[0], entry[1], msg.data)
+
+    def _decode_data(self, kind: pdo.Kind, i: int, data: bytes | bytearray) -> None:
+        """Decode the data of one frame of ``kind`` from drive ``i`` (counted already)."""
         if kind is _TPDO1:
             if len(data) >= 6:
                 self.statusword[i], self.position[i] = pdo.TPDO1_STRUCT.unpack_from(data)

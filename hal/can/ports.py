@@ -33,6 +33,11 @@ NO_BITRATE = ("virtual", "remote", "stub")
 
 #: ``(bus name, python-can keyword arguments) -> bus``.
 BusFactory = Callable[[str, dict[str, Any]], can.BusABC]
+#: ``(drain) -> (classic, others)``: frames waiting, without waiting, classic 11-bit data
+#: frames as ``(identifier, data)``, the others as messages (a transport's fast path; with
+#: ``drain`` False only what one read per peer brings, the rest keeps the descriptor
+#: readable: :meth:`hal.can.unix_bus.UnixBus.recv_frames`).
+FrameReader = Callable[[bool], tuple[list[tuple[int, bytes]], list[can.Message]]]
 
 
 def open_bus(_name: str, kwargs: dict[str, Any]) -> can.BusABC:
@@ -87,6 +92,10 @@ class Port:
     #: when the bus has no filters and keeps BusABC's ``recv`` (which only adds filtering
     #: and debug logging), else ``recv``.
     poll: Callable[[float], tuple[can.Message | None, bool]] = field(init=False)
+    #: Every waiting frame at once, classic data frames as ``(identifier, data)`` and the
+    #: others as messages (:meth:`hal.can.unix_bus.UnixBus.recv_frames`), on a bus that
+    #: offers it and has no filters; else None (python-can's API: ``poll``).
+    recv_frames: FrameReader | None = field(init=False)
     #: The bus's file descriptor to wait on (``select``), or None (``virtual``, stub buses).
     fd: int | None = field(init=False)
     frames_sent: int = 0
@@ -97,7 +106,17 @@ class Port:
 
     def __post_init__(self) -> None:
         self.poll = poller(self.bus)
+        self.recv_frames = frame_reader(self.bus)
         self.fd = descriptor(self.bus)
+
+
+def frame_reader(bus: can.BusABC) -> FrameReader | None:
+    """``bus.recv_frames`` (:data:`FrameReader`) where the interface has it (``unix``) and
+    the bus has no filters (the reader does not apply them), else None."""
+    reader = getattr(bus, "recv_frames", None)
+    if reader is None or not callable(reader) or bus.filters is not None:
+        return None
+    return reader
 
 
 def descriptor(bus: can.BusABC) -> int | None:

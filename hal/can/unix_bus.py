@@ -33,9 +33,10 @@ Not datagram sockets: Linux queues at most ``net.unix.max_dgram_qlen`` (often 10
 per unconnected receiver, less than one cycle of a bus. Not python-can-remote: two websockets
 and four threads per frame (~3 ms per SYNC round trip here).
 
-Frame on the wire: ``<IBBBxd`` (identifier, flags, dlc, data length, timestamp [s]) + data.
-A record (one ``send``) holds one or more frames back to back, at most :data:`MAX_RECORD`
-bytes; a receiver splits it.
+The frames and records on the wire: :mod:`hal.can.unix_wire`. Besides python-can's API, two
+fast paths without a :class:`can.Message` per frame: :meth:`UnixBus.send_raw` /
+:meth:`UnixBus.recv_raw` (the emulator) and :meth:`UnixBus.recv_frames` (the CAN master,
+:mod:`hal.can.cycle`, where a bus offers it).
 """
 
 from __future__ import annotations
@@ -45,7 +46,6 @@ import logging
 import os
 import select
 import socket
-import struct
 import tempfile
 import time
 from collections import deque
@@ -54,16 +54,14 @@ from typing import Any
 
 import can
 
+from hal.can.unix_wire import HEADER, MAX_RECORD, decode, encode, frames, message, split
+
 log = logging.getLogger(__name__)
 
 INTERFACE = "unix"
-_HEADER = struct.Struct("<IBBBxd")
-_pack = _HEADER.pack
-#: Largest record [bytes] (one ``send``): held frames beyond it go in another record.
-MAX_RECORD = 4096
+_pack = HEADER.pack
 #: COB-IDs held with ``hold_pdos`` (TPDO1 0x180 .. RPDO4 0x57F, predefined connection set).
 PDO_FIRST, PDO_LAST = 0x180, 0x57F
-_EXTENDED, _REMOTE, _ERROR, _FD, _BRS, _ESI = 1, 2, 4, 8, 16, 32
 _PATH_MAX = 107
 #: Send buffer per peer connection [bytes] (the kernel caps it at net.core.wmem_max): how
 #: much a peer may fall behind before it loses frames, about 1300 frames per MiB.
@@ -85,75 +83,6 @@ def bus_directory(channel: str | os.PathLike[str]) -> Path:
         else Path(tempfile.gettempdir()) / (f"imotion-can-{os.getuid()}")
     )
     return base / text
-
-
-def encode(msg: can.Message) -> bytes:
-    """One frame on the wire (module doc)."""
-    data = msg.data or b""
-    if not (
-        msg.is_extended_id or msg.is_remote_frame or msg.is_error_frame or msg.is_fd
-        or msg.bitrate_switch or msg.error_state_indicator
-    ):  # fmt: skip
-        stamp = msg.timestamp or time.time()  # a classic 11-bit data frame: the usual one
-        return _HEADER.pack(msg.arbitration_id, 0, msg.dlc, len(data), stamp) + data
-    flags = (
-        (_EXTENDED if msg.is_extended_id else 0)
-        | (_REMOTE if msg.is_remote_frame else 0)
-        | (_ERROR if msg.is_error_frame else 0)
-        | (_FD if msg.is_fd else 0)
-        | (_BRS if msg.bitrate_switch else 0)
-        | (_ESI if msg.error_state_indicator else 0)
-    )
-    stamp = msg.timestamp or time.time()
-    return _HEADER.pack(msg.arbitration_id, flags, msg.dlc, len(data), stamp) + bytes(data)
-
-
-def frames(record: bytes) -> list[tuple[int, int, int, float, bytes]]:
-    """``(identifier, flags, dlc, timestamp [s], data)`` of each frame of one record (module
-    doc); ValueError if the record does not split exactly into frames."""
-    out, start, size, header = [], 0, len(record), _HEADER.size
-    unpack = _HEADER.unpack_from
-    while start < size:
-        if start + header > size:
-            raise ValueError(f"record of {size} bytes cut at byte {start}")
-        can_id, flags, dlc, length, stamp = unpack(record, start)
-        end = start + header + length
-        if end > size:
-            raise ValueError(f"record of {size} bytes cut at byte {start}")
-        out.append((can_id, flags, dlc, stamp, record[start + header : end]))
-        start = end
-    return out
-
-
-def message(
-    can_id: int, flags: int, dlc: int, stamp: float, data: bytes, channel: str
-) -> can.Message:
-    """The :class:`can.Message` of one frame's fields (:func:`frames`)."""
-    if not flags:  # a classic 11-bit data frame: the usual one (positional: cheaper)
-        return can.Message(stamp, can_id, False, False, False, channel, dlc, data)
-    return can.Message(
-        timestamp=stamp,
-        arbitration_id=can_id,
-        is_extended_id=bool(flags & _EXTENDED),
-        is_remote_frame=bool(flags & _REMOTE),
-        is_error_frame=bool(flags & _ERROR),
-        is_fd=bool(flags & _FD),
-        bitrate_switch=bool(flags & _BRS),
-        error_state_indicator=bool(flags & _ESI),
-        dlc=dlc,
-        data=data,
-        channel=channel,
-    )
-
-
-def decode(frame: bytes, channel: str) -> can.Message:
-    """The message of a record holding one frame; ValueError if it is malformed."""
-    if len(frame) < _HEADER.size:
-        raise ValueError(f"unix bus {channel}: frame of {len(frame)} bytes")
-    size = _HEADER.unpack_from(frame)[3]
-    if len(frame) != _HEADER.size + size:
-        raise ValueError(f"unix bus {channel}: frame length {len(frame)} != {_HEADER.size + size}")
-    return message(*frames(frame)[0], channel)
 
 
 class UnixBus(can.BusABC):
@@ -264,7 +193,7 @@ class UnixBus(can.BusABC):
     def send_raw(self, can_id: int, data: bytes) -> None:
         """Send a classic 11-bit data frame without building a :class:`can.Message` (the
         emulator's fast path; same wire frame as :meth:`send`)."""
-        frame = _HEADER.pack(can_id, 0, len(data), len(data), time.time()) + data
+        frame = HEADER.pack(can_id, 0, len(data), len(data), time.time()) + data
         if self.hold_pdos and PDO_FIRST <= can_id <= PDO_LAST:
             self._hold(frame)
         else:
@@ -289,6 +218,48 @@ class UnixBus(can.BusABC):
                     (stamp, can_id, data) for can_id, flags, _, stamp, data in fields if not flags
                 ]
         return out
+
+    def recv_frames(self, drain: bool = True) -> tuple[list[tuple[int, bytes]], list[can.Message]]:
+        """Frames waiting, without waiting: ``(classic, others)``, the classic 11-bit data
+        frames as ``(identifier, data)`` without a :class:`can.Message` each (a master's
+        fast path: :mod:`hal.can.cycle` uses it where a bus offers it), every other frame
+        (extended, remote, error, FD; and frames :meth:`recv` had read but not returned)
+        as messages, each list in the order received. Filters do not apply: for a bus
+        without them.
+
+        ``drain``: every frame waiting (an ``epoll`` per round of records, until one finds
+        none). Else one record of each peer, read directly (one ``recv`` per peer, no
+        ``epoll``; when no peer had one, one ``epoll`` round, which also accepts new
+        participants): for a caller that waits on :meth:`fileno`, readable while more
+        waits (``select`` over several buses at once: one system call for all of them)."""
+        if self._held:  # before reading the answers, the question goes out
+            self.flush()
+        classic: list[tuple[int, bytes]] = []
+        others: list[can.Message] = []
+        if self._pending:
+            others += self._pending
+            self._pending.clear()
+        if not drain:
+            records: list[bytes] = []
+            gone = []
+            for fd, peer in self._peers.items():
+                try:
+                    record = peer.recv(MAX_RECORD)
+                except BlockingIOError:
+                    continue
+                except OSError:
+                    record = b""
+                if record:
+                    records.append(record)
+                else:  # the peer closed its end
+                    gone.append(fd)
+            for fd in gone:
+                self._forget(fd)
+            self._split(records or self._fill(0.0), classic, others)
+            return classic, others
+        while records := self._fill(0.0):
+            self._split(records, classic, others)
+        return classic, others
 
     def shutdown(self) -> None:
         if self._held:
@@ -379,8 +350,8 @@ class UnixBus(can.BusABC):
 
     def _messages(self, records: list[bytes]) -> None:
         """Decode ``records`` into :attr:`_pending` (malformed ones logged and dropped)."""
-        pending, channel, header = self._pending, self._channel, _HEADER.size
-        unpack, make = _HEADER.unpack_from, can.Message
+        pending, channel, header = self._pending, self._channel, HEADER.size
+        unpack, make = HEADER.unpack_from, can.Message
         for received in records:
             record = bytearray(received)  # slices of it are what can.Message keeps (no copy)
             size, start = len(record), 0
@@ -398,6 +369,16 @@ class UnixBus(can.BusABC):
                 pending.extend(
                     message(*fields, channel) for fields in frames(bytes(record[start:]))
                 )
+            except ValueError as exc:
+                log.warning("%s: %s (dropped)", self.channel_info, exc)
+
+    def _split(
+        self, records: list[bytes], classic: list[tuple[int, bytes]], others: list[can.Message]
+    ) -> None:
+        """The frames of ``records`` into ``classic`` and ``others`` (:func:`split`)."""
+        for record in records:
+            try:
+                split(record, classic, others, self._channel)
             except ValueError as exc:
                 log.warning("%s: %s (dropped)", self.channel_info, exc)
 
