@@ -248,7 +248,8 @@ class WholeBodyIK:
         ranges: dict[RedundantAxis, tuple[float, float] | None] | None = None,
     ) -> None:
         """Joints held still (``frozen``, a mask over ``kin.joint_names``), masked axes
-        (``allowed`` False: held at their values in ``kin``'s last update) and axis ranges."""
+        (``allowed`` False: held at their values in ``kin``'s last update) and axis ranges.
+        Tasks set before are laid out in their rows here (else at the next solve)."""
         self._setup = setup = ConstraintSetup(
             np.array(frozen, dtype=bool), allowed or {}, ranges or {}
         )
@@ -256,6 +257,8 @@ class WholeBodyIK:
         for constraint in self._constraints:
             constraint.configure(self.kin, setup)
         self._layout = self._new_layout()
+        if tuple(self.tasks) != self._plan.key:  # set before: their rows now, not in a cycle
+            self._plan = self._plan_for(self.tasks)
 
     def solver_for(self, level: int = 1, p: int = 0) -> QPSolver:
         """The persistent solver of ``level`` for the current layout's shape (``p``
