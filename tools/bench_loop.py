@@ -232,7 +232,18 @@ class Breakdown:
             }
 
         segment = rows[at, SEGMENT]
-        out = {"all": figures(np.ones(len(at), dtype=bool), steady & (rows[:, SEGMENT] >= 0))}
+        out: dict[str, Any] = {
+            "all": figures(np.ones(len(at), dtype=bool), steady & (rows[:, SEGMENT] >= 0))
+        }
+        if self.wrap and len(at):  # where the first cycle's extra goes: p50 per piece
+            moving = steady & (rows[:, SEGMENT] >= 0)
+            out["all"]["pieces_first_vs_steady"] = {
+                name: [
+                    round(float(np.median(rows[at + 1, i])) / 1e3, 1),
+                    round(float(np.median(rows[moving, i])) / 1e3, 1),
+                ]
+                for i, name in enumerate((*PIECES, "other"))
+            }
         for k, name in ((names.index(n), n) for n in dict.fromkeys(names)):
             out[name] = figures(segment == k, steady & (rows[:, SEGMENT] == k))
         return out
@@ -494,6 +505,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             if v["starts"]
         )
     )
+    first = starts["all"].get("pieces_first_vs_steady")
+    if first:
+        print(
+            "first cycle of a motion / later cycles, p50 per piece [us]: "
+            + "  ".join(f"{k} {a:.1f}/{b:.1f}" for k, (a, b) in first.items())
+        )
     gc_figures = None
     if collector is not None:
         gc_figures = {
