@@ -28,10 +28,10 @@ collision rows active (in the whole run and during "arms close", where also the 
 rows between the two arms), the compute time of the cycles with rows active, and what a
 motion start costs: the thread CPU time of ``core.start`` plus the first cycle of the new
 motion, p50/max per kind of motion next to the later cycles of the same kind, and the first
-cycle's pieces against the later cycles' (motions are prepared, ``Motion.prepare``, in the
-planner thread, as the daemon builds them before they start). With ``--runs N`` the run
-repeats N times and the medians of their compute p50/p99, start costs and late counts
-follow. The last line is a JSON object.
+cycle's pieces against the later cycles' (``build_as_planned`` in the planner thread makes
+the motions' state-independent set-up, ``Motion.prepare``, before they start). With
+``--runs N`` the run repeats N times and the medians of their compute p50/p99, start costs
+and late counts follow. The last line is a JSON object.
 
 After each run, the last cycle's kinematics update and IK solve run again with the same
 inputs for ``--spread-seconds`` in the same kind of loop: their thread CPU time p50/p99
@@ -355,8 +355,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 if motion is None:
                     done["skipped"] += 1
                 else:
-                    if hasattr(motion, "prepare"):  # planning-step set-up (older trees: none)
-                        motion.prepare()
                     ready.append((k, motion))
 
     capacity = int(args.rate * args.seconds) + 10
