@@ -18,6 +18,8 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         "cpu_us_p99",
         "late_by_more_than_half_period",
         "overruns",
+        "start_cpu_us_p50",
+        "start_cpu_us_max",
     }
     for run in result["per_run"]:
         assert run["cycles"] == 100
@@ -49,8 +51,13 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         assert moving and all(set(seg["pieces_p50"]) == set(pieces) for seg in moving)
         spread = run["identical_work_cpu_us"]
         assert 0 < spread["p50"] <= spread["p99"] and spread["p99_over_p50"] >= 1.0
+        starts = run["starts"]["all"]  # 0.5 s at 200 Hz: the mix starts a motion or more
+        assert starts["starts"] >= 1 and run["start_cpu_us_p50"] == starts["start_first_p50"]
+        assert 0 < starts["start_p50"] and 0 < starts["first_p50"]
+        assert starts["start_first_p50"] <= starts["start_first_max"]
     assert "piece medians by segment" in out and "identical work" in out
     assert "per cycle [us]" in out and "median of 2 runs" in out
+    assert "motion start, thread CPU" in out
     assert "collision rows active in" in out and "by segment" in out
 
 

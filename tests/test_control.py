@@ -143,6 +143,21 @@ def test_the_checked_plan_is_the_one_executed(ctl: Controller):
     np.testing.assert_array_equal(ctl.core.kin.q, measured)
 
 
+def test_a_motion_is_prepared_as_planned_and_regularised_from_the_measured_state(
+    ctl: Controller,
+):
+    """Its set-up is made as it is built (issue 14: not in a later cycle); the posture it
+    regularises toward is the measured one at the start, not the planned one."""
+    ready(ctl)
+    measured = ctl.core.kin.q.copy()
+    spec = j1_move(ctl, 0.3)
+    spec.planned_from = measured + 1e-3
+    motion = spec.build_as_planned(ctl.core.kin, ctl.dt)
+    assert motion._ik_setup is not None
+    ctl.core.start(motion)
+    np.testing.assert_array_equal(ctl.core.ik.tasks[-1].reference, measured)  # type: ignore[attr-defined]
+
+
 def test_unknown_and_failing_commands_answer_ng(ctl: Controller):
     answers = []
 

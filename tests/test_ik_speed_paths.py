@@ -11,7 +11,14 @@ import pytest
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_value, elbow_axis
-from controller.qp.constraints import ConstraintSetup, CycleState, JointBox, Level, RowBlock
+from controller.qp.constraints import (
+    ConstraintSetup,
+    CycleState,
+    JointBox,
+    Level,
+    Relaxation,
+    RowBlock,
+)
 from controller.qp.ik import DAMPING, WholeBodyIK
 from controller.qp.solver import (
     DEFAULT_SOLVER,
@@ -417,3 +424,131 @@ def test_box_limits_cannot_be_changed_behind_its_back():
     box = JointBox(kinematics("pa10"), DT)
     with pytest.raises(ValueError, match="read-only"):
         box.v_max[0] = 0.0
+
+
+# ----------------------------------------------------- motion starts (issue 14)
+def _motion_setups(kin: Kinematics) -> list[tuple[np.ndarray, dict[RedundantAxis, bool]]]:
+    """Configurations of SmartPal V's motions: right arm with the elbow held, both arms
+    with the waist free, the right arm alone again."""
+    right = frozen_units(kin, [UnitType.RIGHT_ARM])
+    both = frozen_units(kin, [UnitType.RIGHT_ARM, UnitType.LEFT_ARM, UnitType.LUMBER])
+    held = {elbow_axis(RightLeft.RIGHT): False}
+    return [(right, held), (both, {}), (right, held)]
+
+
+def test_a_configuration_seen_before_gets_its_layout_back_and_solves_as_the_reference():
+    kin = kinematics("smartpal5")
+    q, v = kin.home(), np.zeros(kin.nv)
+    kin.update(q)
+    ik = WholeBodyIK(kin, DT)
+    layouts = []
+    for frozen, allowed in _motion_setups(kin):
+        kin.update(q)
+        ik.tasks = arm_tasks(kin)  # a new motion: new tasks, as the motions make them
+        ik.configure(frozen, allowed)
+        layouts.append(ik._layout)
+        q, v, _ = follow(ik, q, v, 15)
+    assert layouts[2] is layouts[0] and layouts[1] is not layouts[0]
+    assert ik.layouts.hits >= 1
+
+
+def test_the_warm_start_stays_with_its_layout():
+    kin = kinematics("smartpal5")
+    q, v = kin.home(), np.zeros(kin.nv)
+    kin.update(q)
+    ik = WholeBodyIK(kin, DT)
+    ik.tasks = arm_tasks(kin)
+    right = frozen_units(kin, [UnitType.RIGHT_ARM])
+    ik.configure(right)
+    q, v, _ = follow(ik, q, v, 5)
+    solver = ik.solver
+    assert isinstance(solver, DaqpSolver) and solver._model is not None
+    ik.configure(np.ones(kin.nv, dtype=bool))  # held between two motions: nothing to solve
+    ik.configure(right)
+    assert ik.solver is solver and solver._model is not None  # the same problem: kept warm
+    left = frozen_units(kin, [UnitType.LEFT_ARM])  # the same shape, another problem
+    ik.configure(left)
+    assert ik.solver is solver and solver._model is None  # cold
+    follow(ik, q, v, 5)
+
+
+def test_a_changed_configuration_never_reuses_a_stale_layout():
+    kin = kinematics("smartpal5")
+    q, v = kin.home(), np.zeros(kin.nv)
+    kin.update(q)
+    ik = WholeBodyIK(kin, DT)
+    ik.tasks = arm_tasks(kin)
+    right = frozen_units(kin, [UnitType.RIGHT_ARM])
+    ik.configure(right, {elbow_axis(RightLeft.RIGHT): False})
+    held = ik._layout
+    q, v, _ = follow(ik, q, v, 5)
+    ik.configure(right)  # same joints, the elbow free: no held-axis row
+    assert ik._layout is not held and ik._layout.m == held.m - 1
+    q, v, _ = follow(ik, q, v, 5)
+    ik.add(_NoRows())  # another constraint list: every layout laid out anew
+    assert len(ik.layouts) == 1
+    ik.configure(right, {elbow_axis(RightLeft.RIGHT): False})
+    assert ik._layout is not held
+    follow(ik, q, v, 5)
+
+
+class _NoRows:
+    """A constraint with no rows (changes the IK's constraint list, nothing else)."""
+
+    name = "no rows"
+    levels = Level.BOTH
+    relaxation = Relaxation.HARD
+    max_rows = 0
+    joints = None
+    holds_at_rest = True
+
+    def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
+        pass
+
+    def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
+        return 0
+
+
+def test_tasks_of_the_same_kinds_reuse_the_buffers_with_their_own_rows():
+    kin = kinematics("smartpal5")
+    q, v = kin.home(), np.zeros(kin.nv)
+    kin.update(q)
+    ik = WholeBodyIK(kin, DT)
+    ik.configure(frozen_units(kin, [UnitType.RIGHT_ARM, UnitType.LEFT_ARM]))
+    ik.tasks = arm_tasks(kin)
+    q, v, _ = follow(ik, q, v, 5)
+    buffers = ik._plan.level1.jac
+    ik.tasks = arm_tasks(kin, offset=-0.03)  # new tasks, same kinds: the same buffers
+    q, v, _ = follow(ik, q, v, 5)
+    assert ik._plan.level1.jac is buffers
+    # A posture task over other joints (a constant J written once) gets its own rows.
+    *cp, posture = arm_tasks(kin)
+    arm = kin.unit_indices(UnitType.RIGHT_ARM)
+    ik.tasks = [*cp, PostureTask(kin.home(), arm), posture]
+    q, v, _ = follow(ik, q, v, 5)
+    ik.tasks = [*cp, PostureTask(kin.home(), np.arange(len(arm))), posture]  # same rows
+    assert ik._plan.level1.jac is not buffers
+    follow(ik, q, v, 5)
+
+
+def test_reconfiguring_the_box_with_the_same_frozen_joints_keeps_what_it_prepared():
+    kin = kinematics("smartpal5")
+    box = JointBox(kin, DT)
+    q, v = kin.home(), np.full(kin.nv, 0.01)
+    right = ConstraintSetup(frozen_units(kin, [UnitType.RIGHT_ARM]))
+    box.configure(kin, right)
+    box.compute_qp_bounds(q, v)
+    prepared = box._off_q
+    box.configure(kin, ConstraintSetup(right.frozen.copy()))
+    left = ConstraintSetup(frozen_units(kin, [UnitType.LEFT_ARM]))
+    box.configure(kin, left)  # other frozen joints: only their caps change
+    lb, ub = box.compute_qp_bounds(q, v)
+    assert box._off_q is prepared
+    fresh = JointBox(kin, DT)
+    fresh.configure(kin, left)
+    for mine, theirs in zip((lb, ub), fresh.compute_qp_bounds(q, v), strict=True):
+        assert np.array_equal(mine, theirs)
+    box.dt = 2 * DT  # a limit input changed: everything anew
+    fresh.dt = 2 * DT
+    assert box.compute_qp_bounds(q, v)[1].tolist() == fresh.compute_qp_bounds(q, v)[1].tolist()
+    assert box._off_q is not prepared

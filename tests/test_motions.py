@@ -475,3 +475,35 @@ def test_raising_the_hand_follows_the_checked_joint_path_on_the_line():
     assert core.alarms == []
     assert worst[0] <= 0.05e-3, f"{worst[0] * 1e3:.4f} mm off the line"
     np.testing.assert_allclose(core.kin.q, checker.last_q, atol=math.radians(0.5))
+
+
+def test_a_prepared_motion_takes_the_posture_of_its_start_and_of_each_resume():
+    core = make_core("smartpal5")
+    kin, box = core.kin, core.ik.box
+    right, left = (kin.unit_indices(UnitType[f"{s}_ARM"]) for s in ("RIGHT", "LEFT"))
+
+    def ptp(joints: np.ndarray, delta: float) -> JointMotion:
+        target = kin.q[joints] + delta
+        return JointMotion(kin, DT, joints, target, box.v_max[joints], box.a_max[joints])
+
+    motion = ptp(right, 0.1)
+    motion.prepare()  # planned here, started after the left arm has moved
+    setup = motion.setup()
+    assert motion.setup() is setup and not setup.frozen.flags.writeable
+    posture = setup.tasks[-1]
+    run_motion(core, ptp(left, 0.1))
+    core.start(motion)
+    assert np.array_equal(posture.reference, core.kin.q) and not posture.rate.any()
+    for _ in range(100):
+        core.cycle()
+    core.pause()
+    while core.state != CoreState.PAUSED:
+        core.cycle()
+    core.cycle()  # held: the measured state moves on by the last commands
+    posture.rate[:] = 1.0
+    core.resume()
+    assert core.ik.tasks[-1] is posture and np.array_equal(posture.reference, core.kin.q)
+    assert not posture.rate.any()
+    while core.motion is not None:
+        core.cycle()
+    assert core.state == CoreState.READY and not core.alarms

@@ -53,3 +53,15 @@ def test_pose_error_with_and_without_the_kernel(monkeypatch: pytest.MonkeyPatch)
         monkeypatch.setattr(tasks, "_COMPILED", compiled)
         results.append(tasks.pose_error(target, pose))
     np.testing.assert_allclose(results[0], results[1], atol=1e-9)
+
+
+def test_posture_tasks_over_the_same_joints_share_one_read_only_jacobian() -> None:
+    nv = 7
+    a = tasks.PostureTask(np.zeros(nv), np.array([1, 3]))
+    b = tasks.PostureTask(np.ones(nv), np.array([1, 3]))
+    jac = a._jacobian(nv)
+    assert b._jacobian(nv) is jac and not jac.flags.writeable
+    assert np.array_equal(jac, np.eye(nv)[[1, 3]])
+    every = tasks.PostureTask(np.zeros(nv), np.arange(nv))
+    assert np.array_equal(every._jacobian(nv), np.eye(nv)) and every._every and not a._every
+    assert tasks.PostureTask(np.zeros(nv), np.array([3, 1]))._jacobian(nv)[0, 3] == 1.0

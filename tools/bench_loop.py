@@ -25,9 +25,13 @@ late by more than half a period, the per-piece breakdown of the compute time (me
 per cycle [µs]: read, kinematics, motion, collision (distances and rows), QP build, QP solve,
 write, publish, other; and each piece's median per segment), the share of cycles with
 collision rows active (in the whole run and during "arms close", where also the share with
-rows between the two arms), and the compute
-time of the cycles with rows active. With ``--runs N`` the run repeats N times and the medians
-of their compute p50/p99 and late counts follow. The last line is a JSON object.
+rows between the two arms), the compute time of the cycles with rows active, and what a
+motion start costs: the thread CPU time of ``core.start`` plus the first cycle of the new
+motion, p50/max per kind of motion next to the later cycles of the same kind, and the first
+cycle's pieces against the later cycles' (``build_as_planned`` in the planner thread makes
+the motions' state-independent set-up, ``Motion.prepare``, before they start). With
+``--runs N`` the run repeats N times and the medians of their compute p50/p99, start costs
+and late counts follow. The last line is a JSON object.
 
 After each run, the last cycle's kinematics update and IK solve run again with the same
 inputs for ``--spread-seconds`` in the same kind of loop: their thread CPU time p50/p99
@@ -80,7 +84,7 @@ def _patch(obj: Any, name: str, value: Any) -> None:
 
 PIECES = ("read", "kinematics", "motion", "collision", "qp_build", "qp_solve", "write", "publish")
 #: Extra columns of :attr:`Breakdown.rows` after the pieces and "other".
-COMPUTE, ROWS, ARM_ROWS, SEGMENT, CPU = range(len(PIECES) + 1, len(PIECES) + 6)
+COMPUTE, ROWS, ARM_ROWS, SEGMENT, CPU, START = range(len(PIECES) + 1, len(PIECES) + 7)
 
 
 class Breakdown:
@@ -90,7 +94,7 @@ class Breakdown:
     def __init__(self, core: MotionCore, capacity: int, wrap: bool = True):
         """``wrap=False``: no timers (the pieces stay 0), only the compute time and rows."""
         self.now = dict.fromkeys(PIECES, 0)
-        self.rows = np.zeros((capacity, CPU + 1))
+        self.rows = np.zeros((capacity, START + 1))
         self.n = 0
         self.wrap = wrap
         if wrap:
@@ -146,22 +150,30 @@ class Breakdown:
         return wrapped
 
     def end_cycle(
-        self, compute_ns: int, cpu_ns: int, rows: int, arm_rows: bool, segment: int
+        self,
+        compute_ns: int,
+        cpu_ns: int,
+        rows: int,
+        arm_rows: bool,
+        segment: int,
+        start_ns: int = 0,
     ) -> None:
         """Close the cycle: wall-clock ``compute_ns`` and thread CPU ``cpu_ns`` of the step,
         ``rows`` collision rows, ``arm_rows`` some between the two arms, ``segment``: index
-        of the running motion's segment (-1: none)."""
+        of the running motion's segment (-1: none), ``start_ns``: thread CPU of the
+        ``core.start`` this step made (0: none; part of ``cpu_ns``)."""
         if self.n < len(self.rows):
             row = self.rows[self.n]
             for i, name in enumerate(PIECES):
                 row[i] = self.now[name]
             row[len(PIECES)] = compute_ns - sum(self.now.values())
-            row[COMPUTE], row[ROWS], row[ARM_ROWS], row[SEGMENT], row[CPU] = (
+            row[COMPUTE], row[ROWS], row[ARM_ROWS], row[SEGMENT], row[CPU], row[START] = (
                 compute_ns,
                 rows,
                 arm_rows,
                 segment,
                 cpu_ns,
+                start_ns,
             )
             self.n += 1
         for name in PIECES:
@@ -189,6 +201,51 @@ class Breakdown:
                     piece: round(float(m), 1)
                     for piece, m in zip((*PIECES, "other"), medians, strict=True)
                 }
+        return out
+
+    def start_summary(self, names: list[str], period_us: float) -> dict[str, Any]:
+        """What a motion start costs, per segment and over all starts: thread CPU [µs] of
+        ``core.start`` plus the first cycle of the new motion (``start_first``: p50, max),
+        each alone (``start``, ``first``: p50), against the segment's later cycles
+        (``steady``: p50); ``over_period``: starts whose start step or first cycle took
+        longer than the period on the wall clock."""
+        rows = self.rows[: self.n]
+        at = np.flatnonzero(rows[:, START] > 0)
+        at = at[at + 1 < len(rows)]  # the first cycle of the motion is the next step
+        start, first = rows[at, START] / 1e3, rows[at + 1, CPU] / 1e3
+        late = (rows[at, COMPUTE] > period_us * 1e3) | (rows[at + 1, COMPUTE] > period_us * 1e3)
+        steady = np.ones(len(rows), dtype=bool)
+        steady[at] = steady[at + 1] = False
+
+        def figures(pick: np.ndarray, cycles: np.ndarray) -> dict[str, float]:
+            both = start[pick] + first[pick]
+            if not len(both):
+                return {"starts": 0}
+            return {
+                "starts": len(both),
+                "start_first_p50": round(float(np.median(both)), 1),
+                "start_first_max": round(float(both.max()), 1),
+                "start_p50": round(float(np.median(start[pick])), 1),
+                "first_p50": round(float(np.median(first[pick])), 1),
+                "steady_p50": _percentiles(rows[cycles, CPU] / 1e3)["p50"],
+                "over_period": int(late[pick].sum()),
+            }
+
+        segment = rows[at, SEGMENT]
+        out: dict[str, Any] = {
+            "all": figures(np.ones(len(at), dtype=bool), steady & (rows[:, SEGMENT] >= 0))
+        }
+        if self.wrap and len(at):  # where the first cycle's extra goes: p50 per piece
+            moving = steady & (rows[:, SEGMENT] >= 0)
+            out["all"]["pieces_first_vs_steady"] = {
+                name: [
+                    round(float(np.median(rows[at + 1, i])) / 1e3, 1),
+                    round(float(np.median(rows[moving, i])) / 1e3, 1),
+                ]
+                for i, name in enumerate((*PIECES, "other"))
+            }
+        for k, name in ((names.index(n), n) for n in dict.fromkeys(names)):
+            out[name] = figures(segment == k, steady & (rows[:, SEGMENT] == k))
         return out
 
     def cpu_summary(self) -> dict[str, float]:
@@ -312,12 +369,15 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     def step(cycle: int, t: float) -> bool:
         t0, c0 = time.perf_counter_ns(), time.thread_time_ns()
+        start_cpu = 0
         core.cycle()
         if core.motion is None:
             segment["now"] = -1
         if ready and core.state == CoreState.READY and core.motion is None:
             k, motion = ready.pop()
+            s0 = time.thread_time_ns()
             core.start(motion)
+            start_cpu = max(1, time.thread_time_ns() - s0)
             segment["now"] = names.index(names[k])  # the segment's first entry
             done["motions"] += 1
         elif not ready and core.motion is None and not idle.is_set():
@@ -331,7 +391,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 between = bool(n_rows and arm_rows[collision.pairs].any())
                 d = collision.distances.distances[arm_rows]
                 closest["arms"] = min(closest["arms"], float(d.min(initial=math.inf)))
-        breakdown.end_cycle(compute, cpu, n_rows, between, segment["now"])
+        breakdown.end_cycle(compute, cpu, n_rows, between, segment["now"], start_cpu)
         return core.state != CoreState.ALARM
 
     thread = threading.Thread(target=planner, daemon=True)
@@ -367,6 +427,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     pieces = breakdown.summary()
     rows = breakdown.collision_summary(close)
     by_segment = breakdown.segment_summary(names)
+    starts = breakdown.start_summary(names, 1e6 / args.rate)
     rows["arms_closest_mm"] = round(closest["arms"] * 1e3, 1) if closest["arms"] < 1e9 else None
     stats = loop.stats.summary()
     report = loop.realtime_report
@@ -432,6 +493,22 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             f"{spread['p50']:.1f}/{spread['p99']:.1f} us, p99/p50 {spread['p99_over_p50']:.2f} "
             f"(the mix: {cpu['p99'] / cpu['p50']:.2f}): the machine's spread"
         )
+    print(
+        "motion start, thread CPU [us] of core.start + the first cycle, p50/max (start, first "
+        "cycle p50; the segment's later cycles p50; starts with a step over the period): "
+        + ", ".join(
+            f"{name} {v['start_first_p50']:.0f}/{v['start_first_max']:.0f} ({v['start_p50']:.0f}"
+            f" + {v['first_p50']:.0f}; {v['steady_p50']:.0f}; {v['over_period']}/{v['starts']})"
+            for name, v in starts.items()
+            if v["starts"]
+        )
+    )
+    first = starts["all"].get("pieces_first_vs_steady")
+    if first:
+        print(
+            "first cycle of a motion / later cycles, p50 per piece [us]: "
+            + "  ".join(f"{k} {a:.1f}/{b:.1f}" for k, (a, b) in first.items())
+        )
     gc_figures = None
     if collector is not None:
         gc_figures = {
@@ -457,6 +534,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "cpu_us_p50": cpu["p50"],
         "cpu_us_p99": cpu["p99"],
         "identical_work_cpu_us": spread,
+        "start_cpu_us_p50": starts["all"].get("start_first_p50", 0.0),
+        "start_cpu_us_max": starts["all"].get("start_first_max", 0.0),
+        "starts": starts,
         "pieces_us": pieces,
         "collision": rows,
         "segments": by_segment,
@@ -526,13 +606,17 @@ def main() -> int:
         "cpu_us_p99",
         "late_by_more_than_half_period",
         "overruns",
+        "start_cpu_us_p50",
+        "start_cpu_us_max",
     )
     median = {k: statistics.median(r[k] for r in runs) for k in keys}
     if args.runs > 1:
         print(
             f"median of {args.runs} runs: compute p50 {median['compute_us_p50']:.1f} us, "
             f"p99 {median['compute_us_p99']:.1f} us (CPU p50 {median['cpu_us_p50']:.1f}, "
-            f"p99 {median['cpu_us_p99']:.1f} us), late by > half a period "
+            f"p99 {median['cpu_us_p99']:.1f} us; motion start + first cycle CPU p50 "
+            f"{median['start_cpu_us_p50']:.1f}, max {median['start_cpu_us_max']:.1f} us), "
+            "late by > half a period "
             f"{median['late_by_more_than_half_period']:g}, overruns {median['overruns']:g}; "
             f"load at the starts {[r['load'][0] for r in runs]}"
         )

@@ -48,15 +48,19 @@ class MotionSpec:
     def build_as_planned(self, kin: Kinematics, dt: float) -> Motion:
         """The motion the gateway checked: built at the configuration it was planned from
         (:attr:`planned_from`), so its path and time law are the checked ones, not a re-plan
-        from where the robot happens to be; ``kin`` is back at its measured state after."""
+        from where the robot happens to be; ``kin`` is back at its measured state after.
+        The motion is prepared (:meth:`~controller.motion.motions.Motion.prepare`)."""
         if self.planned_from is None:
-            return self.build(kin, dt)
-        measured = kin.q.copy()
-        kin.update(self.planned_from)
-        try:
-            return self.build(kin, dt)
-        finally:
-            kin.update(measured)
+            motion = self.build(kin, dt)
+        else:
+            measured = kin.q.copy()
+            kin.update(self.planned_from)
+            try:
+                motion = self.build(kin, dt)
+            finally:
+                kin.update(measured)
+        motion.prepare()  # its set-up that does not depend on the state at the start
+        return motion
 
 
 @dataclass

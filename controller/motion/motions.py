@@ -67,10 +67,37 @@ class Motion(abc.ABC):
     """A motion in progress."""
 
     profile: PathProfile
+    kin: Kinematics
+    #: What :meth:`prepare` made (None: not yet).
+    _ik_setup: IKSetup | None = None
+    #: The regularisation task :meth:`setup` puts at the posture of the moment (None: the
+    #: motion keeps its own, or has none).
+    _start_posture: PostureTask | None = None
 
-    @abc.abstractmethod
+    def _make_setup(self) -> IKSetup:
+        """The motion's :class:`IKSetup`, made once (see :meth:`prepare`)."""
+        raise NotImplementedError
+
+    def prepare(self) -> None:
+        """Make the part of :meth:`setup` that does not depend on the state at the start
+        (frozen joints, axes, ranges, the tasks): in the planning step, before the motion
+        reaches the control loop (:meth:`setup` does it when it was not done)."""
+        if self._ik_setup is None:
+            setup = self._make_setup()
+            setup.frozen.flags.writeable = False  # shared by every setup() call
+            self._ik_setup = setup
+
     def setup(self) -> IKSetup:
-        """Tasks and constraints, built once when the motion starts."""
+        """Tasks and constraints when the motion starts (and when it resumes from a
+        pause): what :meth:`prepare` made, the regularisation posture set to the state of
+        the moment (the measured one, at a start)."""
+        self.prepare()
+        assert self._ik_setup is not None
+        posture = self._start_posture
+        if posture is not None:
+            posture.reference[...] = self.kin.q
+            posture.rate[...] = 0.0
+        return self._ik_setup
 
     @abc.abstractmethod
     def apply(self, s0: float, s1: float, dt: float) -> None:
@@ -130,7 +157,8 @@ def follow_posture(task: PostureTask, path: PosturePath, s0: float, s1: float, d
 
 
 def _posture(kin: Kinematics) -> PostureTask:
-    """Regularisation toward the posture at the start of the motion."""
+    """Regularisation toward the posture at the start of the motion (:meth:`Motion.setup`
+    moves it to the posture of the start)."""
     return PostureTask(kin.q.copy(), np.arange(kin.nv))
 
 
@@ -189,12 +217,13 @@ class JointMotion(Motion):
             self.profile_limits = (v, fitted)
             self.profile = PathProfile(self.dt, v, fitted, self.duration)
 
-    def setup(self) -> IKSetup:
+    def _make_setup(self) -> IKSetup:
         frozen = np.ones(self.kin.nv, dtype=bool)
         frozen[self.joints] = False
         for task in self.hold:
             frozen[arm_joints(self.kin, task.side)] = False
-        return IKSetup([self.track, *self.hold, _posture(self.kin)], frozen)
+        self._start_posture = _posture(self.kin)
+        return IKSetup([self.track, *self.hold, self._start_posture], frozen)
 
     def apply(self, s0: float, s1: float, dt: float) -> None:
         now = self.path.at(s0)
@@ -302,7 +331,7 @@ class CartesianMotion(Motion):
         if self.elbow is not None:
             self.allowed[self.elbow.axis] = True
 
-    def setup(self) -> IKSetup:
+    def _make_setup(self) -> IKSetup:
         kin = self.kin
         frozen = np.zeros(kin.nv, dtype=bool)
         other = other_side(self.side)
@@ -363,7 +392,7 @@ class DualCartesianMotion(Motion):
             v, a = min(v, path_limits[0]), min(a, path_limits[1])
         self.profile = PathProfile(dt, v, a, duration)
 
-    def setup(self) -> IKSetup:
+    def _make_setup(self) -> IKSetup:
         kin = self.kin
         frozen = np.ones(kin.nv, dtype=bool)
         tasks: list[Task] = []
@@ -374,7 +403,8 @@ class DualCartesianMotion(Motion):
             if motion.elbow is not None:
                 tasks.append(motion.elbow)
                 allowed[elbow_axis(side)] = True
-        tasks.append(_posture(kin))
+        self._start_posture = _posture(kin)
+        tasks.append(self._start_posture)
         return IKSetup(tasks, frozen, allowed, {})
 
     def apply(self, s0: float, s1: float, dt: float) -> None:
@@ -535,7 +565,7 @@ class CPHoldMotion(AxisPathMotion):
         super().__init__(kin, dt, targets, np.array(spd), np.array(acc), level=2)
         self.hold = [ControlPointTask(side, kin.pose(side)) for side in held]
 
-    def setup(self) -> IKSetup:
+    def _make_setup(self) -> IKSetup:
         kin = self.kin
         frozen = np.zeros(kin.nv, dtype=bool)
         moving = {t.side for t in self.hold} | {a.side for a in self.axes if a.is_elbow}
@@ -552,7 +582,8 @@ class CPHoldMotion(AxisPathMotion):
         allowed = {a: a in self.axes for a in available_axes(kin)}
         if self.free_elbows:
             allowed.update({a: True for a in allowed if a.is_elbow})
-        return IKSetup([*self.hold, *self.tasks, _posture(kin)], frozen, allowed)
+        self._start_posture = _posture(kin)
+        return IKSetup([*self.hold, *self.tasks, self._start_posture], frozen, allowed)
 
 
 class VehicleMotion(AxisPathMotion):
@@ -582,7 +613,8 @@ class VehicleMotion(AxisPathMotion):
             level=1,
         )
 
-    def setup(self) -> IKSetup:
+    def _make_setup(self) -> IKSetup:
         frozen = np.ones(self.kin.nv, dtype=bool)
         frozen[self.kin.unit_indices(UnitType.VEHICLE)] = False
-        return IKSetup([*self.tasks, _posture(self.kin)], frozen)
+        self._start_posture = _posture(self.kin)
+        return IKSetup([*self.tasks, self._start_posture], frozen)

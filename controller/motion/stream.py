@@ -119,10 +119,11 @@ class JointStreamMotion(Motion):
         self._in.target_acceleration = [0.0] * len(self.joints)
 
     # ------------------------------------------------------------------ Motion
-    def setup(self) -> IKSetup:
+    def _make_setup(self) -> IKSetup:
         frozen = np.ones(self.kin.nv, dtype=bool)
         frozen[self.joints] = False
-        return IKSetup([self.track, _posture(self.kin)], frozen)
+        self._start_posture = _posture(self.kin)
+        return IKSetup([self.track, self._start_posture], frozen)
 
     def apply(self, s0: float, s1: float, dt: float) -> None:
         raise NotImplementedError("a stream has no path parameter: advance() drives it")

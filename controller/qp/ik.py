@@ -27,6 +27,12 @@ frozen joints only are checked instead of solved (:mod:`controller.qp.layout`). 
 rows change only with the configuration, :meth:`WholeBodyIK.configure` (the one way to set
 it), and every problem shape keeps its own persistent, warm-started solver.
 
+A motion start is cheap when its configuration was seen before: the layout comes back from
+:attr:`WholeBodyIK.layouts`, the solvers keep the warm start of the last motion with that
+layout (the same variables and rows) unless another layout of their shape came between, and
+the task rows reuse the buffers of the last tasks with the same :func:`plan_signature`
+(figures: docs/qp.md).
+
 A level-1 QP without solution is retried with the constraints' relaxations
 (:class:`~controller.qp.constraints.Relaxation`: first "no further", then without the
 droppable rows); the step's ``message`` says what gave. A failed or infeasible level-1 solve
@@ -50,7 +56,7 @@ from controller.qp.constraints import (
     CycleState,
     JointBox,
 )
-from controller.qp.layout import Layout
+from controller.qp.layout import Layout, LayoutCache
 from controller.qp.solver import DEFAULT_SOLVER, QPSolver, make_solver
 from controller.qp.tasks import Task
 
@@ -72,7 +78,6 @@ class _Stack:
     """Some tasks' rows ``(J, e, w)`` stacked in fixed buffers, filled in place every cycle."""
 
     def __init__(self, tasks: list[Task], kin: Kinematics):
-        self.tasks = tasks
         m = sum(len(t.weight) for t in tasks)
         # Column-major: the free joints' columns are one contiguous block BLAS takes as is.
         self.jac = np.zeros((m, kin.nv), order="F")
@@ -82,6 +87,13 @@ class _Stack:
         #: same-shape product, several times cheaper in NumPy than by broadcasting.
         self._wide_weight = np.zeros((m, kin.nv), order="F")
         self._weight_key: bytes | None = None
+        self.bind(tasks, kin)
+
+    def bind(self, tasks: list[Task], kin: Kinematics) -> None:
+        """Lay ``tasks`` over the buffers (as many rows per task, in the same order, as
+        the tasks the buffers were made for): views of each task's rows, and the Jacobian
+        of a task whose J is constant written now."""
+        self.tasks = tasks
         #: Per task, views of its rows (made once: slicing every cycle costs); ``None`` for
         #: the Jacobian of a task whose J is constant, written here once.
         self.views: list[tuple[Task, np.ndarray | None, np.ndarray, np.ndarray]] = []
@@ -119,19 +131,42 @@ class _Stack:
         return H, np.negative(g, out=g)
 
 
+def plan_signature(tasks: list[Task]) -> tuple[tuple[int, int, bool], ...]:
+    """What a plan's buffers are made for: per task, its level, rows and whether its
+    Jacobian is constant. Tasks with the same signature fit the same buffers."""
+    return tuple((t.level, len(t.weight), t.constant_jacobian) for t in tasks)
+
+
+#: Plans (their buffers) :class:`WholeBodyIK` keeps by signature.
+PLAN_CACHE_SIZE = 16
+
+
 class _Plan:
     """The tasks by level: level 1 with the regularisation, level 2 (if any) with it too."""
 
     def __init__(self, tasks: list[Task], kin: Kinematics):
-        self.key = tuple(tasks)
-        first = [t for t in tasks if t.level == 1]
-        regular = [t for t in tasks if t.level == 0]
-        second = [t for t in tasks if t.level == 2]
+        first, regular, second = self._levels(tasks)
         self.level1 = _Stack(first + regular, kin)
         #: Rows of the level-1 tasks proper (the first rows of ``level1``).
         self.m1 = sum(len(t.weight) for t in first)
         self.n_second = len(second)
         self.level2 = _Stack(second + regular, kin) if second else None
+        self.key = tuple(tasks)
+
+    @staticmethod
+    def _levels(tasks: list[Task]) -> tuple[list[Task], list[Task], list[Task]]:
+        first = [t for t in tasks if t.level == 1]
+        regular = [t for t in tasks if t.level == 0]
+        second = [t for t in tasks if t.level == 2]
+        return first, regular, second
+
+    def bind(self, tasks: list[Task], kin: Kinematics) -> None:
+        """Take ``tasks`` (of this plan's :func:`plan_signature`) into its buffers."""
+        first, regular, second = self._levels(tasks)
+        self.level1.bind(first + regular, kin)
+        if self.level2 is not None:
+            self.level2.bind(second + regular, kin)
+        self.key = tuple(tasks)
 
     def fill(self, kin: Kinematics) -> None:
         """Every level's rows; level 2 copies the regularisation's rows from level 1."""
@@ -165,6 +200,11 @@ class WholeBodyIK:
         self.n_eq = 6 * len(kin.arms)
         self.solver_name = solver
         self._solvers: dict[tuple[int, int, int, int], QPSolver] = {}
+        #: Per solver (by key): the layout whose problem its warm start belongs to.
+        self._warm_for: dict[tuple[int, int, int, int], Layout] = {}
+        #: The layouts of recent configurations, and the plans of recent task signatures.
+        self.layouts = LayoutCache(DAMPING)
+        self._plans: dict[tuple[tuple[int, int, bool], ...], _Plan] = {}
         #: The last level-2 solver used (None before the first level-2 solve).
         self.solver2: QPSolver | None = None
         self.tasks: list[Task] = []
@@ -198,6 +238,7 @@ class WholeBodyIK:
         configured at once with the current configuration, and at every :meth:`configure`."""
         self._constraints.append(constraint)
         constraint.configure(self.kin, self._setup)
+        self.layouts.clear()  # they were made for the constraints before
         self._layout = self._new_layout()
 
     def configure(
@@ -207,7 +248,8 @@ class WholeBodyIK:
         ranges: dict[RedundantAxis, tuple[float, float] | None] | None = None,
     ) -> None:
         """Joints held still (``frozen``, a mask over ``kin.joint_names``), masked axes
-        (``allowed`` False: held at their values in ``kin``'s last update) and axis ranges."""
+        (``allowed`` False: held at their values in ``kin``'s last update) and axis ranges.
+        Tasks set before are laid out in their rows here (else at the next solve)."""
         self._setup = setup = ConstraintSetup(
             np.array(frozen, dtype=bool), allowed or {}, ranges or {}
         )
@@ -215,27 +257,48 @@ class WholeBodyIK:
         for constraint in self._constraints:
             constraint.configure(self.kin, setup)
         self._layout = self._new_layout()
+        if tuple(self.tasks) != self._plan.key:  # set before: their rows now, not in a cycle
+            self._plan = self._plan_for(self.tasks)
 
     def solver_for(self, level: int = 1, p: int = 0) -> QPSolver:
         """The persistent solver of ``level`` for the current layout's shape (``p``
-        equalities): one per shape, kept across configurations."""
+        equalities): one per shape, kept across configurations. Its warm start is kept
+        while it solves the problems of one layout, also when that layout comes back from
+        :attr:`layouts` after others (a motion start with a configuration seen before
+        starts from the working set the last motion with it ended with); the problem of
+        another layout of the same shape starts cold."""
         layout = self._layout
         key = (layout.n, layout.m1 if level == 1 else layout.m2, p, level)
         solver = self._solvers.get(key)
         if solver is None:
             # No guard: the box never crosses (JointBox) and solve() checks its result.
             solver = self._solvers[key] = make_solver(self.solver_name, *key[:3], guard=False)
+        elif self._warm_for.get(key) is not layout:
+            solver.reset()  # another problem: no warm start from it
+        self._warm_for[key] = layout
         return solver
 
     def _new_layout(self) -> Layout:
-        self._layout = layout = Layout(self._setup.frozen, self._constraints, DAMPING)
+        """The layout of the current configuration (from :attr:`layouts` when seen
+        before)."""
+        self._layout = layout = self.layouts.get(self._setup.frozen, self._constraints)
         if layout.n:  # with every joint frozen there is nothing to solve (nor a QP to make)
             self.solver = self.solver_for()
-        shapes = {(layout.n, layout.m1, 1), (layout.n, layout.m2, 2)}
-        for (n, m, _, level), solver in self._solvers.items():
-            if (n, m, level) in shapes:
-                solver.reset()  # a new problem: no warm start from another one
         return layout
+
+    def _plan_for(self, tasks: list[Task]) -> _Plan:
+        """A plan for ``tasks``: the buffers of an earlier plan with their signature when
+        there is one (a motion start with the same kinds of tasks), else new ones."""
+        signature = plan_signature(tasks)
+        plan = self._plans.pop(signature, None)
+        if plan is None:
+            plan = _Plan(tasks, self.kin)
+            if len(self._plans) >= PLAN_CACHE_SIZE:  # the least recently used goes
+                del self._plans[next(iter(self._plans))]
+        else:
+            plan.bind(tasks, self.kin)
+        self._plans[signature] = plan
+        return plan
 
     def _cycle_at(
         self, q: np.ndarray, v_prev: np.ndarray, lb: np.ndarray, ub: np.ndarray
@@ -254,7 +317,7 @@ class WholeBodyIK:
         layout = self._layout
         plan = self._plan
         if tuple(self.tasks) != plan.key:
-            plan = self._plan = _Plan(self.tasks, kin)
+            plan = self._plan = self._plan_for(self.tasks)
         lb, ub = self.box.compute_qp_bounds(q_cmd, v_prev)
         v = lb.copy()  # frozen joints: lb = ub is their velocity; free ones are set below
         moving = None

@@ -223,10 +223,8 @@ class PostureTask(Task):
 
     def _jacobian(self, nv: int) -> np.ndarray:
         if self._jac is None or self._jac.shape[1] != nv:
-            self._jac = np.zeros((len(self.joints), nv))
-            self._jac[np.arange(len(self.joints)), self.joints] = 1.0
             #: ``joints`` is every joint in order: no indexing needed.
-            self._every = np.array_equal(self.joints, np.arange(nv))
+            self._jac, self._every = _identity_rows(self.joints, nv)
         return self._jac
 
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
@@ -246,6 +244,28 @@ class PostureTask(Task):
         if self.gain != 1.0:  # x·1 = x exactly: skip the product
             rate *= self.gain
         rate += self.rate
+
+
+#: Rows of the identity by (joints, nv): the Jacobians of posture tasks, shared read-only
+#: (every motion makes a new posture task over the same joints; making its J cost ~8 µs).
+_IDENTITY_ROWS: dict[tuple[bytes, int], tuple[np.ndarray, bool]] = {}
+#: Entries :data:`_IDENTITY_ROWS` keeps at most (then it starts over).
+_IDENTITY_ROWS_SIZE = 64
+
+
+def _identity_rows(joints: np.ndarray, nv: int) -> tuple[np.ndarray, bool]:
+    """Rows ``joints`` of the ``nv`` x ``nv`` identity (read-only), and whether ``joints``
+    is every joint in order."""
+    key = (joints.tobytes(), nv)
+    found = _IDENTITY_ROWS.get(key)
+    if found is None:
+        jac = np.zeros((len(joints), nv))
+        jac[np.arange(len(joints)), joints] = 1.0
+        jac.flags.writeable = False
+        if len(_IDENTITY_ROWS) >= _IDENTITY_ROWS_SIZE:
+            _IDENTITY_ROWS.clear()
+        found = _IDENTITY_ROWS[key] = (jac, bool(np.array_equal(joints, np.arange(nv))))
+    return found
 
 
 if _COMPILED:  # compile (or load) at import for Pinocchio's arrays: never in a control cycle

@@ -63,6 +63,10 @@ class AxisLimit:
         self.axes = axes
         self.dt = dt
         self._joints = [axis_joints(kin, a) for a in axes]
+        #: Per axis, its joints as a mask over every joint (one row per axis).
+        self._joint_mask = np.zeros((len(axes), kin.nv), dtype=bool)
+        for i, joints in enumerate(self._joints):
+            self._joint_mask[i, joints] = True
         self._a_max = np.array([kin.robot.joints[n].acceleration for n in kin.joint_names])
         #: (row, axis, held value [rad, m], elbow side or None) and (row, axis, lower, upper
         #: [rad, m]).
@@ -80,9 +84,12 @@ class AxisLimit:
         held: list[tuple[int, RedundantAxis, float, RightLeft | None]] = []
         ranged: list[tuple[int, RedundantAxis, float, float]] = []
         active: list[int] = []
-        for i, axis in enumerate(self.axes):
-            if setup.frozen[self._joints[i]].all():
-                continue  # cannot move anyway
+        # Axes with a free joint, all at once (an axis whose joints are frozen cannot move).
+        movable = np.logical_and(self._joint_mask, ~np.asarray(setup.frozen, dtype=bool))
+        for i, can_move in enumerate(movable.any(axis=1).tolist()):
+            if not can_move:
+                continue
+            axis = self.axes[i]
             limits = setup.ranges.get(axis)
             if not setup.allowed.get(axis, True):
                 side = axis.side if axis.is_elbow else None
@@ -96,7 +103,8 @@ class AxisLimit:
         self._rows = [(k, self.axes[i]) for k, i in enumerate(active)]
         self.active = np.array(active, dtype=int)
         self.max_rows = n = len(active)
-        self._pos, self._neg = np.zeros((n, kin.nv)), np.zeros((n, kin.nv))
+        if len(self._pos) != n:  # scratch of the rows' shape (its contents never matter)
+            self._pos, self._neg = np.zeros((n, kin.nv)), np.zeros((n, kin.nv))
 
     def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
         kin, lb, ub, dt = cycle.kin, cycle.lb, cycle.ub, self.dt
