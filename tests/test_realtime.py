@@ -236,6 +236,30 @@ def test_the_loop_thread_is_pinned_and_restored(monkeypatch):
     assert os.sched_getaffinity(0) == before  # this thread never moved
 
 
+def test_the_switch_interval_is_set_and_restored(monkeypatch):
+    monkeypatch.setattr(os, "sched_setscheduler", lambda *a: None)
+    before = sys.getswitchinterval()
+    report = apply_realtime(lock_memory=False, freeze_gc=False, switch_interval=2e-4)
+    try:
+        assert (
+            report.switch_interval == pytest.approx(2e-4)
+            and report.previous_switch_interval == before
+        )
+        assert sys.getswitchinterval() == pytest.approx(2e-4)
+    finally:
+        restore(report)
+    assert sys.getswitchinterval() == before
+    assert apply_realtime(lock_memory=False, freeze_gc=False).switch_interval is None
+
+
+@pytest.mark.parametrize("interval", [0.0, -1.0, 2.0, float("nan")])
+def test_a_switch_interval_out_of_range_is_refused(interval: float):
+    before = sys.getswitchinterval()
+    with pytest.raises(ValueError, match="switch interval"):
+        apply_realtime(switch_interval=interval)
+    assert sys.getswitchinterval() == before
+
+
 @pytest.mark.parametrize("cpu", [-1, 4095])
 def test_a_cpu_that_cannot_be_had_warns_and_leaves_the_affinity(monkeypatch, caplog, cpu):
     monkeypatch.setattr(os, "sched_setscheduler", lambda *a: None)

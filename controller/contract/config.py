@@ -51,6 +51,10 @@ class RealtimeConfig(_Strict):
     #: Run Python's garbage collector only in the control loop's slack, never mid-cycle
     #: (controller.control.collector). Off: CPython's automatic collection.
     collect_in_slack: bool = True
+    #: The control process's GIL switch interval [s]: how long one of its other threads may
+    #: keep the GIL from the loop thread once the loop asks for it (Python's default 5 ms
+    #: shows up as late cycles; the benchmarks run at 0.1 ms).
+    switch_interval_s: float = Field(default=1e-4, ge=1e-5, le=0.1)
     #: Pin the loop thread to these CPUs (a core kept free of other work); None: the
     #: scheduler places it. Refused CPUs leave it unpinned with a warning.
     loop_cpus: list[int] | None = None

@@ -22,6 +22,10 @@ recorded in the returned :class:`RealtimeReport`. :func:`restore` undoes what to
   (``LimitMEMLOCK=infinity``).
 * **gc.freeze()**: moves every object alive now into the permanent generation, so the
   collector's passes during the loop only scan what the loop allocates. Process-wide.
+* **GIL switch interval** (``switch_interval``, optional) via :func:`sys.setswitchinterval`:
+  how long another thread of the process may keep the GIL once the loop thread asks for it
+  (Python's default, 5 ms, shows up as late cycles whenever a helper thread runs Python).
+  Process-wide.
 * **CPU affinity** (``cpus``, optional) via :func:`os.sched_setaffinity` with pid 0: the
   calling thread only runs on those CPUs; it keeps its caches and never migrates. Meant for
   a core kept free of other work (``isolcpus=`` on the kernel command line, or the rest of
@@ -38,6 +42,7 @@ import errno
 import gc
 import logging
 import os
+import sys
 import threading
 from collections.abc import Collection
 from dataclasses import dataclass, field
@@ -72,6 +77,9 @@ class RealtimeReport:
     #: CPUs the calling thread is pinned to (None: not pinned), and its CPUs before.
     cpus: list[int] | None = None
     previous_cpus: list[int] | None = None
+    #: The GIL switch interval set [s] (None: left alone), and the one before.
+    switch_interval: float | None = None
+    previous_switch_interval: float | None = None
     #: Set by :func:`restore`; the flags above keep saying what was in effect.
     restored: bool = False
 
@@ -87,13 +95,15 @@ def apply_realtime(
     freeze_gc: bool = True,
     helper_priority: int = 1,
     cpus: Collection[int] | None = None,
+    switch_interval: float | None = None,
 ) -> RealtimeReport:
     """Make the calling thread real-time as far as allowed; see the module docstring.
 
     ``priority`` is the SCHED_FIFO priority, 1 (lowest) to 99; ``helper_priority`` the other
     Python threads' (below ``priority``; 0: leave them alone); ``cpus``: pin the calling
-    thread to these CPUs (None or empty: leave its affinity). Each measure that fails is
-    logged as a warning and left out; the report says what is in effect.
+    thread to these CPUs (None or empty: leave its affinity); ``switch_interval`` [s]: the
+    process's GIL switch interval (None: leave it). Each measure that fails is logged as a
+    warning and left out; the report says what is in effect.
     """
     if not 1 <= priority <= 99:
         raise ValueError(f"SCHED_FIFO priority must be 1..99, got {priority}")
@@ -102,7 +112,13 @@ def apply_realtime(
             f"helper SCHED_FIFO priority must be 0..{priority - 1} (below the loop's), "
             f"got {helper_priority}"
         )
+    if switch_interval is not None and not 0.0 < switch_interval <= 1.0:
+        raise ValueError(f"switch interval must be within (0, 1] s, got {switch_interval!r}")
     report = RealtimeReport(priority=priority)
+    if switch_interval is not None:
+        report.previous_switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(switch_interval)
+        report.switch_interval = sys.getswitchinterval()
     _set_fifo(report)
     if report.fifo and helper_priority:
         _set_helpers(report, helper_priority)
@@ -131,6 +147,8 @@ def restore(report: RealtimeReport) -> None:
             os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
         except OSError:  # ended meanwhile
             pass
+    if report.previous_switch_interval is not None:
+        sys.setswitchinterval(report.previous_switch_interval)
     if report.cpus is not None and report.previous_cpus is not None:
         try:
             os.sched_setaffinity(0, report.previous_cpus)

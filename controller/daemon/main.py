@@ -372,6 +372,7 @@ def _main(args: argparse.Namespace) -> int:
             cfg.realtime.lock_memory,
             helper_priority=cfg.realtime.helper_priority,
             cpus=cfg.realtime.loop_cpus,
+            switch_interval=cfg.realtime.switch_interval_s,
         )
         if cfg.realtime.enabled
         else None
