@@ -196,6 +196,34 @@ def test_an_answer_comes_after_the_snapshot_shows_it(ctl: Controller):
     assert read(ctl).moving
 
 
+def test_a_started_motion_runs_its_first_cycle_in_the_next_step(ctl: Controller):
+    """The command builds and starts its motion right after this step's cycle; the motion's
+    first cycle (the dearest one) is the next step's: one step never carries both. Urgent
+    commands still act before the cycle."""
+    ready(ctl)
+    order: list[str] = []
+    execute, cycle = ctl._execute, ctl.core.cycle
+
+    def spy_execute(request: Request) -> None:
+        order.append(request.name)
+        execute(request)
+
+    def spy_cycle(elapsed: float | None = None) -> None:
+        order.append("cycle with a motion" if ctl.core.motion is not None else "cycle")
+        cycle(elapsed)
+
+    ctl._execute = spy_execute  # type: ignore[method-assign]
+    ctl.core.cycle = spy_cycle  # type: ignore[method-assign]
+    start = Request("start", {"spec": j1_move(ctl, 0.4)})
+    ctl.inbox.put(start)
+    ctl.urgent.put(Request("stop", {}))
+    step(ctl)
+    assert order == ["stop", "cycle", "start"] and start.ok
+    assert read(ctl).moving  # the answer's snapshot shows the motion
+    step(ctl)
+    assert order[-1] == "cycle with a motion"
+
+
 def test_submit_times_out_without_a_loop(ctl: Controller):
     request = ctl.submit("status", timeout=0.05)
     assert not request.ok and request.code == ReturnCode.NG and "did not answer" in request.message

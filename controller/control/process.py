@@ -123,17 +123,16 @@ class Controller(Commands):
     def _step(self, cycle: int, t: float) -> bool:
         executed: list[Request] = []
         try:
-            for inbox in (self.urgent, self.inbox):
-                while True:
-                    try:
-                        request = inbox.get_nowait()
-                    except queue.Empty:
-                        break
-                    self._execute(request)
-                    executed.append(request)
+            # Urgent commands (stop, pause, servo off, ...) act in this cycle; the others
+            # right after it: a motion command builds and starts its motion here and the
+            # motion's first cycle (the dearest) runs in the next step, so one step never
+            # carries both (a start at 1 kHz overran the period before). Their answer goes
+            # out after this step's snapshot either way.
+            self._execute_all(self.urgent, executed)
             elapsed = None if self._last_t is None else t - self._last_t
             self._last_t = t
             self.core.cycle(elapsed)
+            self._execute_all(self.inbox, executed)
             self.overruns.observe(t)
             self._after_cycle()
             self.publish()
@@ -145,6 +144,15 @@ class Controller(Commands):
             for request in executed:
                 request.done.set()
         return not self._shutdown_step()
+
+    def _execute_all(self, inbox: queue.SimpleQueue[Request], executed: list[Request]) -> None:
+        while True:
+            try:
+                request = inbox.get_nowait()
+            except queue.Empty:
+                return
+            self._execute(request)
+            executed.append(request)
 
     def run(self) -> None:
         """Run the loop in the calling thread until shutdown."""
