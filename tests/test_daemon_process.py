@@ -360,6 +360,52 @@ def _gone(pid: int) -> bool:
     return "\nState:\tZ" in status
 
 
+def _nice_values(pid: int) -> set[int]:
+    """The nice values of every thread of process ``pid`` (Linux: nice is per thread)."""
+    values = set()
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            values.add(int((task / "stat").read_text().rsplit(")", 1)[1].split()[16]))
+        except OSError:  # the thread ended meanwhile
+            continue
+    return values
+
+
+def test_the_gateway_process_runs_at_gateway_nice_with_its_heap_frozen():
+    """``gateway_nice``: every thread of the gateway child (gRPC's included, started after
+    the value was set), and only the gateway; a raised value, which needs no privilege. Its
+    heap is frozen once started (no full collection of it while serving)."""
+    mine = os.getpriority(os.PRIO_PROCESS, 0)
+    target = min(19, mine + 4)
+    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250")
+    d2 = None
+    try:
+        d.wait_ready()
+        (gateway,) = _children(d.proc.pid)
+        assert _nice_values(gateway) <= {-5, mine}  # the default (or left, when refused)
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0, d.log
+        d2 = _run(
+            "--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250",
+            "--set", f"gateway_nice={target}",
+        )  # fmt: skip
+        address = d2.wait_ready()
+        channel, stub = _stub(address)
+        assert stub.GetState(pb.GetStateRequest(), timeout=30.0).return_id.id == 0
+        channel.close()
+        (gateway,) = _children(d2.proc.pid)
+        assert _nice_values(gateway) == {target}
+        assert os.getpriority(os.PRIO_PROCESS, d2.proc.pid) == mine  # the control process
+        d2.proc.send_signal(signal.SIGTERM)
+        assert d2.wait_exit() == 0, d2.log
+    finally:
+        d.kill()
+        if d2 is not None:
+            d2.kill()
+    assert "gateway_nice" not in d2.log  # permitted: no warning
+    assert re.search(r"proc=gateway .*msg=\"\d+ objects frozen out of the full garbage", d2.log)
+
+
 def test_gateway_stops_when_imotiond_is_killed():
     """SIGKILL leaves imotiond no time to clean up: the gateway notices its parent is gone and
     stops instead of holding the port as an orphan."""
