@@ -327,6 +327,41 @@ class Mover:
         self.channel.close()
 
 
+class Floor:
+    """tools/grpc_floor.py (a constant-reply grpcio server shaped like the gateway) beside
+    the daemon: the same clients at it give grpcio's own cost and latency at that minute."""
+
+    def __init__(self, daemon: Daemon, switch_interval: float, nice: int | None):
+        self.daemon = daemon
+        cmd = [sys.executable, str(ROOT / "tools" / "grpc_floor.py")]
+        cmd += ["--switch-interval", f"{switch_interval:g}"]
+        if nice is not None:  # the gateway's, for a like-for-like comparison
+            cmd += ["--nice", str(nice)]
+        self.proc = subprocess.Popen(
+            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=ROOT
+        )
+        assert self.proc.stdout is not None
+        line = self.proc.stdout.readline().strip()
+        if not line.startswith("READY "):
+            self.proc.kill()
+            raise RuntimeError(f"tools/grpc_floor.py did not start: {line!r}")
+        self.address = line.split(" ", 1)[1]
+
+    def gateway_pid(self) -> int:
+        return self.proc.pid
+
+    def cycles(self) -> int:
+        return self.daemon.cycles()
+
+    def stop(self) -> None:
+        self.proc.terminate()
+        try:
+            self.proc.wait(10.0)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+
+
 def phase_stats(wake: np.ndarray, compute: np.ndarray, period_us: float) -> dict[str, Any]:
     if wake.size == 0:
         return {"cycles": 0}
@@ -352,6 +387,16 @@ def cpu_seconds(pid: int | None) -> float:
     except OSError:
         return 0.0
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def nice_of(pid: int | None) -> int | None:
+    """The nice value of a process's main thread (None when unknown)."""
+    if pid is None:
+        return None
+    try:
+        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[16])
+    except (OSError, IndexError, ValueError):
+        return None
 
 
 def runqueue_seconds(pid: int | None) -> float:
@@ -385,13 +430,17 @@ def split_by_commands(
 
 
 def run_clients(
-    daemon: Daemon, args: argparse.Namespace, hz: float, mover: Mover | None = None
+    daemon: Daemon | Floor,
+    args: argparse.Namespace,
+    hz: float,
+    mover: Mover | None = None,
+    idle_cpu: float = 0.0,
 ) -> dict[str, Any]:
     """``--clients`` clients (``--procs`` processes) for ``--seconds``: as fast as they can
     (``hz`` 0) or each ``hz`` calls a second. getState round trips (all; those overlapping a
     move command of ``mover`` and the others), call rate, the CPU time per call of the
-    gateway process and of the clients [us], and how long the gateway's threads waited for
-    a CPU [ms per s]."""
+    gateway process (also net of ``idle_cpu``, its CPU rate without clients [s/s]) and of
+    the clients [us], and how long the gateway's threads waited for a CPU [ms per s]."""
     threads = -(-args.clients // args.procs)
     client_cmd = [sys.executable, __file__, "--client", daemon.address, "--hz", f"{hz:g}"]
     client_cmd += ["--threads", str(threads), "--seconds", str(args.seconds)]
@@ -442,9 +491,12 @@ def run_clients(
     out["errors"] = errors
     if calls:
         out["gateway_cpu_us_per_call"] = round(gateway_cpu / calls * 1e6, 1)
+        net = gateway_cpu - idle_cpu * args.seconds
+        out["gateway_net_cpu_us_per_call"] = round(net / calls * 1e6, 1)
         out["client_cpu_us_per_call"] = round(client_cpu / calls * 1e6, 1)
     out["gateway_runqueue_ms_per_s"] = round(waited / args.seconds * 1e3, 1)
     out["load"] = round(os.getloadavg()[0], 2)
+    out["gateway_nice"] = nice_of(daemon.gateway_pid())
     out["cycles"] = (c2, c3)
     out["clients"] = threads * args.procs
     return out
@@ -472,17 +524,31 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         mover.start()
         time.sleep(args.warmup)
         c0 = daemon.cycles()
+        idle_cpu = cpu_seconds(daemon.gateway_pid())
+        t_idle = time.monotonic()
         time.sleep(args.seconds)
+        idle_cpu = (cpu_seconds(daemon.gateway_pid()) - idle_cpu) / (time.monotonic() - t_idle)
         c1 = daemon.cycles()
-        loaded = run_clients(daemon, args, 0.0, mover)
+        # What the gateway does without clients (the mover's calls and planning included).
+        result["gateway_idle_cpu_ms_per_s"] = round(idle_cpu * 1e3, 1)
+        loaded = run_clients(daemon, args, 0.0, mover, idle_cpu)
         c2, c3 = loaded.pop("cycles")
         result["clients"] = loaded.pop("clients")
         result["saturated"] = loaded
         result["phase_cycles"] = [c0, c1, c2, c3]
         if args.poll_hz > 0:
-            paced = run_clients(daemon, args, args.poll_hz, mover)
+            paced = run_clients(daemon, args, args.poll_hz, mover, idle_cpu)
             del paced["cycles"], paced["clients"]
             result["paced"] = paced
+            if args.floor:
+                nice = nice_of(daemon.gateway_pid())
+                floor = Floor(daemon, args.switch_interval or 0.0005, nice)
+                try:
+                    grpcio = run_clients(floor, args, args.poll_hz)
+                finally:
+                    floor.stop()
+                del grpcio["cycles"], grpcio["clients"]
+                result["floor"] = grpcio
     finally:
         if mover is not None:
             mover.stop()
@@ -536,7 +602,12 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
     print()
     for r in results:
         verdict = "PASS" if r["pass"] else "FAIL"
-        for name, what in (("saturated", "as fast as they can"), ("paced", "polling")):
+        phases = (
+            ("saturated", "as fast as they can"),
+            ("paced", "polling"),
+            ("floor", "polling grpcio's floor (tools/grpc_floor.py)"),
+        )
+        for name, what in phases:
             g = r.get(name)
             if g is None or "getstate_p99_ms" not in g:
                 continue
@@ -549,6 +620,14 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
                 f"CPU per call: gateway {g.get('gateway_cpu_us_per_call', 0):.0f} us, "
                 f"clients {g.get('client_cpu_us_per_call', 0):.0f} us; load {g['load']:.2f}"
             )
+            if name != "floor":
+                idle = r["gateway_idle_cpu_ms_per_s"]
+                print(
+                    f"{'':8s}   gateway CPU per call net of its {idle:.0f} ms/s without "
+                    "clients (the mover): "
+                    f"{g.get('gateway_net_cpu_us_per_call', 0):.0f} us; gateway nice "
+                    f"{g.get('gateway_nice')}"
+                )
             if "getstate_p99_during_moves_ms" in g:
                 print(
                     f"{'':8s}   p99 of the {g['reads_during_moves']} reads during a move "
@@ -595,6 +674,12 @@ def main() -> int:
         type=float,
         default=POLL_HZ,
         help="each client's call rate in the paced phase [Hz] (0: no paced phase)",
+    )
+    parser.add_argument(
+        "--floor",
+        action="store_true",
+        help="after the paced phase, the same clients at a constant-reply grpcio server "
+        "(tools/grpc_floor.py) beside the daemon: grpcio's own cost and latency",
     )
     parser.add_argument(
         "--root",
