@@ -63,5 +63,6 @@ def test_paced_clients_at_the_floor_report_latency_cpu_and_nice():
         floor.stop()
     assert out["errors"] == 0 and out["calls_per_s"] > 0
     assert out["getstate_p99_ms"] >= out["getstate_p50_ms"] > 0
+    assert 0 < out["getstate_p99_from_send_ms"] and out["client_late_p99_ms"] >= 0
     assert out["gateway_cpu_us_per_call"] == out["gateway_net_cpu_us_per_call"]
     assert out["gateway_nice"] == min(19, mine + 1)  # the value asked for, applied

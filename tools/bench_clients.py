@@ -91,6 +91,7 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
     counts = [0] * threads
     errors = [0] * threads
     latencies: list[list[float]] = [[] for _ in range(threads)]
+    late: list[list[float]] = [[] for _ in range(threads)]  #: sent after the due time [us]
     starts: list[list[float]] = [[] for _ in range(threads)]  # monotonic [s]
     connected = threading.Barrier(threads + 1)
     go = threading.Event()
@@ -120,9 +121,11 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
                 if n & 1:
                     stub.GetFeedbackPosCartesian(pose, timeout=5.0)
                 else:
-                    t0 = time.perf_counter() - max(0.0, time.monotonic() - due)
+                    behind = max(0.0, time.monotonic() - due)
+                    t0 = time.perf_counter() - behind
                     stub.GetState(state, timeout=5.0)
                     latencies[k].append((time.perf_counter() - t0) * 1e6)
+                    late[k].append(behind * 1e6)
                     starts[k].append(due)
                 counts[k] += 1
             except grpc.RpcError:
@@ -150,6 +153,7 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
         "errors": sum(errors),
         "cpu_s": cpu_s,
         "getstate_us": samples,
+        "getstate_late_us": [round(x, 1) for per_thread in late for x in per_thread],
         "getstate_start_s": begun,
     }
     print(json.dumps(out))
@@ -471,6 +475,7 @@ def run_clients(
     client_cpu = 0.0
     getstate: list[float] = []
     starts: list[float] = []
+    late: list[float] = []  # how late the client thread sent each getState [us]
     for proc in clients:
         stdout, _ = proc.communicate(timeout=120.0)
         line = stdout.strip().splitlines()[-1] if stdout.strip() else "{}"
@@ -480,11 +485,18 @@ def run_clients(
         client_cpu += float(data.get("cpu_s", 0.0))
         getstate += data.get("getstate_us", [])
         starts += data.get("getstate_start_s", [])
+        late += data.get("getstate_late_us", [])
     out: dict[str, Any] = {"poll_hz": hz}
     if getstate:
         p50, p99 = np.percentile(getstate, [50.0, 99.0])
         out["getstate_p50_ms"] = round(float(p50) / 1e3, 2)
         out["getstate_p99_ms"] = round(float(p99) / 1e3, 2)
+        if hz > 0 and len(late) == len(getstate):
+            # The round trip from the moment the client sent: without the client's own
+            # wait for a CPU at its due time (on a busy machine the clients starve too).
+            sent = np.array(getstate) - np.array(late)
+            out["getstate_p99_from_send_ms"] = round(float(np.percentile(sent, 99.0)) / 1e3, 2)
+            out["client_late_p99_ms"] = round(float(np.percentile(late, 99.0)) / 1e3, 2)
         if mover is not None and len(starts) == len(getstate):
             out.update(split_by_commands(np.array(starts), np.array(getstate), mover.commands))
     out["calls_per_s"] = round(calls / args.seconds, 1)
@@ -627,6 +639,12 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
                     "clients (the mover): "
                     f"{g.get('gateway_net_cpu_us_per_call', 0):.0f} us; gateway nice "
                     f"{g.get('gateway_nice')}"
+                )
+            if "getstate_p99_from_send_ms" in g:
+                sent, late = g["getstate_p99_from_send_ms"], g["client_late_p99_ms"]
+                print(
+                    f"{'':8s}   from the client's send: p99 {sent:.2f} ms; the clients sent "
+                    f"late by up to {late:.2f} ms (p99; their own wait for a CPU)"
                 )
             if "getstate_p99_during_moves_ms" in g:
                 print(
