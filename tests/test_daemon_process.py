@@ -260,6 +260,34 @@ def test_a_killed_gateway_is_restarted_in_place():
     assert "stopping motion, restarting it" in d.log
 
 
+def _fifo_permitted() -> bool:
+    code = "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))"
+    return subprocess.run([sys.executable, "-c", code], capture_output=True).returncode == 0
+
+
+@pytest.mark.skipif(not _fifo_permitted(), reason="real time not permitted here")
+def test_a_restarted_gateway_is_not_real_time():
+    """With real time on, imotiond restarts a killed gateway from its supervising thread,
+    which runs at SCHED_FIFO 1: the new gateway inherited it in every thread (under client
+    load it would have starved every ordinary process). It goes back to SCHED_OTHER."""
+    d = Imotiond("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250")
+    try:
+        d.wait_ready()
+        (gateway,) = _children(d.proc.pid)
+        os.kill(gateway, signal.SIGKILL)
+        d.wait_line(r"gateway restarted, listening on")
+        (new_gateway,) = _children(d.proc.pid)
+        policies = {
+            os.sched_getscheduler(int(t.name)) for t in Path(f"/proc/{new_gateway}/task").iterdir()
+        }
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0, d.log
+    finally:
+        d.kill()
+    assert policies == {os.SCHED_OTHER}
+    assert "back to SCHED_OTHER" in d.log
+
+
 # ----------------------------------------------------------------------------- refusals
 def _refused(*args: str) -> Imotiond:
     d = _run(*args)

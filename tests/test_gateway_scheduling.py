@@ -140,3 +140,59 @@ def test_freeze_heap_leaves_the_full_collections_little_to_traverse():
         assert len(gc.get_objects()) < tracked // 10
     finally:
         gc.unfreeze()
+
+
+def _fifo_permitted() -> bool:
+    code = "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))"
+    return subprocess.run([sys.executable, "-c", code], capture_output=True).returncode == 0
+
+
+def test_an_inherited_real_time_policy_is_left(monkeypatch):
+    fifo = {101: os.SCHED_FIFO, 102: os.SCHED_FIFO, 103: os.SCHED_OTHER}
+    set_to: dict[int, int] = {}
+
+    def setscheduler(tid: int, policy: int, param: object) -> None:
+        set_to[tid] = policy
+
+    monkeypatch.setattr(scheduling, "_threads", lambda: sorted(fifo))
+    monkeypatch.setattr(scheduling.os, "sched_getscheduler", fifo.__getitem__)
+    monkeypatch.setattr(scheduling.os, "sched_setscheduler", setscheduler)
+    note = scheduling.leave_real_time()
+    assert note is not None and "2 thread(s) back to SCHED_OTHER" in note
+    assert set_to == {101: os.SCHED_OTHER, 102: os.SCHED_OTHER}
+
+
+def test_an_ordinary_process_is_left_alone(monkeypatch):
+    monkeypatch.setattr(scheduling, "_threads", lambda: [101, 102])
+    monkeypatch.setattr(scheduling.os, "sched_getscheduler", lambda tid: os.SCHED_OTHER)
+
+    def refuse(*_: object) -> None:
+        raise AssertionError("nothing to change")
+
+    monkeypatch.setattr(scheduling.os, "sched_setscheduler", refuse)
+    assert scheduling.leave_real_time() is None
+
+
+@pytest.mark.skipif(not LINUX or not _fifo_permitted(), reason="SCHED_FIFO not permitted here")
+def test_real_fifo_threads_go_back_to_sched_other():
+    """For real: a process started from a SCHED_FIFO thread (as imotiond's supervising
+    thread restarts a gateway) leaves it, every thread and those started later."""
+    code = """
+import os, threading
+from controller.gateway.scheduling import leave_real_time
+os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+ev = threading.Event()
+before = threading.Thread(target=ev.wait); before.start()
+assert os.sched_getscheduler(before.native_id) == os.SCHED_FIFO
+assert leave_real_time() is not None
+after = threading.Thread(target=ev.wait); after.start()
+policies = {os.sched_getscheduler(int(t)) for t in os.listdir("/proc/self/task")}
+ev.set(); before.join(); after.join()
+print(sorted(policies) == [os.SCHED_OTHER])
+"""
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "True"

@@ -37,7 +37,7 @@ from controller.gateway.observe.blackbox_writer import BlackBoxWriter
 from controller.gateway.observe.live_view import LiveView, start_live_view
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
-from controller.gateway.scheduling import apply_nice, freeze_heap
+from controller.gateway.scheduling import apply_nice, freeze_heap, leave_real_time
 from controller.gateway.services.context import Context
 from controller.gateway.services.registry import Services
 from controller.logs import setup_logging
@@ -242,11 +242,12 @@ def main(argv: list[str] | None = None) -> int:
     # poll thread, a worker, the poll thread again): at Python's 5 ms a read arriving during
     # planning waited up to ~20 ms (docs/daemon.md, "Reads under client load").
     sys.setswitchinterval(cfg.gateway_switch_interval_s)
-    # Before gRPC starts its threads (they inherit it): the gateway's share of the CPU
-    # against the machine's other work (docs/daemon.md, "Reads under client load").
-    warning = apply_nice(cfg.gateway_nice)
-    if warning is not None:
-        _log.warning("%s", warning)
+    # Before gRPC starts its threads (they inherit both): an ordinary process (never
+    # real-time, whoever started it), with its share of the CPU against the machine's other
+    # work (docs/daemon.md, "Reads under client load").
+    for warning in (leave_real_time(), apply_nice(cfg.gateway_nice)):
+        if warning is not None:
+            _log.warning("%s", warning)
     try:
         gateway = start_gateway(cfg, args.runtime)
     except Exception as exc:

@@ -1,5 +1,6 @@
-"""The gateway process's claim on the CPU: its nice value (``gateway_nice``) and its heap
-frozen out of the garbage collector's full collections.
+"""The gateway process's claim on the CPU: an ordinary (never real-time) process, its nice
+value (``gateway_nice``), and its heap frozen out of the garbage collector's full
+collections.
 
 The control loop is real-time (SCHED_FIFO) and does not care; the gateway is an ordinary
 (SCHED_OTHER) process, and on a machine that also runs other work its threads wait in the
@@ -66,6 +67,38 @@ def apply_nice(nice: int) -> str | None:
             )
         done.append(tid)
     return None
+
+
+def leave_real_time() -> str | None:
+    """Put every thread of this process back under SCHED_OTHER if it inherited a real-time
+    policy, and say so (None when it had not).
+
+    A child inherits the scheduling policy of the thread that forked it: imotiond restarts a
+    dead gateway from its supervising thread, which runs at SCHED_FIFO 1 (the control
+    process's helper threads share the loop's GIL), and the new gateway then ran every
+    thread at SCHED_FIFO 1: under client load it would starve every ordinary process, nice
+    values notwithstanding. Switching to SCHED_OTHER needs no privilege. Never raises.
+    """
+    if not hasattr(os, "sched_getscheduler"):
+        return None
+    changed: list[str] = []
+    for tid in _threads():
+        try:
+            policy = os.sched_getscheduler(tid)
+            if policy in (os.SCHED_OTHER, getattr(os, "SCHED_BATCH", -1)):
+                continue
+            os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
+        except ProcessLookupError:
+            continue
+        except OSError as exc:
+            return f"the gateway inherited a real-time policy and cannot leave it: {exc}"
+        changed.append(str(tid))
+    if not changed:
+        return None
+    return (
+        f"the gateway inherited a real-time policy from the thread that started it: "
+        f"{len(changed)} thread(s) back to SCHED_OTHER"
+    )
 
 
 def freeze_heap() -> int:
