@@ -180,7 +180,8 @@ class DaemonConfig(_Strict):
     #: The gateway process's nice value (CFS weight; ordinary processes: 0): below 0, its
     #: threads get the CPU before the machine's other work. Needs root, CAP_SYS_NICE or a
     #: nice limit (the systemd unit's ``LimitNICE=``); else a warning and the inherited
-    #: value. Never real-time. ``gateway: process`` only (docs/daemon.md).
+    #: value. Only with ``realtime.enabled`` (an ordinary loop thread must not be outranked
+    #: by its gateway). Never real-time. ``gateway: process`` only (docs/daemon.md).
     gateway_nice: int = Field(default=-5, ge=-20, le=19)
     security: SecurityConfig = SecurityConfig()
     jara: JaraConfig = JaraConfig()

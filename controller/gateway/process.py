@@ -245,9 +245,15 @@ def main(argv: list[str] | None = None) -> int:
     # Before gRPC starts its threads (they inherit both): an ordinary process (never
     # real-time, whoever started it), with its share of the CPU against the machine's other
     # work (docs/daemon.md, "Reads under client load").
-    for warning in (leave_real_time(), apply_nice(cfg.gateway_nice)):
+    warning = leave_real_time()
+    if warning is not None:
+        _log.warning("%s", warning)
+    if cfg.realtime.enabled:  # the loop is real-time: out of the CFS competition
+        warning = apply_nice(cfg.gateway_nice)
         if warning is not None:
             _log.warning("%s", warning)
+    else:  # an ordinary loop thread: the gateway must not outrank it
+        _log.info("gateway_nice not applied: realtime.enabled is false")
     try:
         gateway = start_gateway(cfg, args.runtime)
     except Exception as exc:
