@@ -4,7 +4,7 @@ does the gateway answer reads under it?
 
 Usage: python tools/bench_clients.py [--seconds 10] [--clients 32] [--procs 4] [--rate 1000]
                                      [--poll-hz 20] [--set KEY=VALUE ...] [--root DIR]
-                                     [--modes process,thread]
+                                     [--modes process,thread] [--floor]
 
 For each gateway mode (``process``: gRPC in its own process, the shipped design; ``thread``:
 gRPC inside the control process, the peer) it starts ``imotiond --hal sim`` at ``--rate``
@@ -41,7 +41,14 @@ that overlapped a move command of the mover (the gateway was planning it;
 ``getstate_p99_during_moves_ms``, ``reads_during_moves``) and of the others
 (``getstate_p99_other_ms``), and how long the gateway's threads waited for a CPU while
 runnable (``gateway_runqueue_ms_per_s``, from /proc/PID/task/*/schedstat: the machine's
-share of the tail). For
+share of the tail). The paced phase also gives the round trip from the client's send
+(``getstate_p99_from_send_ms``) and how late the clients sent (``client_late_p99_ms``: they
+share the cores and wait for a CPU too); each client phase the gateway's CPU per call net of
+what it uses without clients (``gateway_net_cpu_us_per_call``; the mover's calls and
+planning: ``gateway_idle_cpu_ms_per_s``) and its nice value. ``--floor`` then points the
+same paced clients at a constant-reply grpcio server shaped like the gateway
+(tools/grpc_floor.py, at the gateway's nice value) beside the running daemon: grpcio's own
+cost and latency in the same minute (``<mode>.floor``). For
 reference it first measures the machine's floor: a bare SCHED_FIFO thread that only sleeps
 to 1 ms deadlines (on shared virtual cores even that is late now and then).
 """
