@@ -205,6 +205,14 @@ def test_security_token_rules_on_loopback():
     assert security_problems(both) == []
 
 
+def test_gateway_nice_is_bounded():
+    assert load_config(None, None, []).gateway_nice == -5
+    assert load_config(None, None, ["gateway_nice=0"]).gateway_nice == 0
+    for bad in ("-21", "20", "1.5", "high"):
+        with pytest.raises(ConfigError, match="gateway_nice"):
+            load_config(None, None, [f"gateway_nice={bad}"])
+
+
 def test_gateway_switch_interval_is_bounded():
     assert load_config(None, None, []).gateway_switch_interval_s == 0.0005
     assert (

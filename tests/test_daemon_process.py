@@ -260,6 +260,34 @@ def test_a_killed_gateway_is_restarted_in_place():
     assert "stopping motion, restarting it" in d.log
 
 
+def _fifo_permitted() -> bool:
+    code = "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))"
+    return subprocess.run([sys.executable, "-c", code], capture_output=True).returncode == 0
+
+
+@pytest.mark.skipif(not _fifo_permitted(), reason="real time not permitted here")
+def test_a_restarted_gateway_is_not_real_time():
+    """With real time on, imotiond restarts a killed gateway from its supervising thread,
+    which runs at SCHED_FIFO 1: the new gateway inherited it in every thread (under client
+    load it would have starved every ordinary process). It goes back to SCHED_OTHER."""
+    d = Imotiond("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250")
+    try:
+        d.wait_ready()
+        (gateway,) = _children(d.proc.pid)
+        os.kill(gateway, signal.SIGKILL)
+        d.wait_line(r"gateway restarted, listening on")
+        (new_gateway,) = _children(d.proc.pid)
+        policies = {
+            os.sched_getscheduler(int(t.name)) for t in Path(f"/proc/{new_gateway}/task").iterdir()
+        }
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0, d.log
+    finally:
+        d.kill()
+    assert policies == {os.SCHED_OTHER}
+    assert "back to SCHED_OTHER" in d.log
+
+
 # ----------------------------------------------------------------------------- refusals
 def _refused(*args: str) -> Imotiond:
     d = _run(*args)
@@ -358,6 +386,54 @@ def _gone(pid: int) -> bool:
     except OSError:
         return True
     return "\nState:\tZ" in status
+
+
+def _nice_values(pid: int) -> set[int]:
+    """The nice values of every thread of process ``pid`` (Linux: nice is per thread)."""
+    values = set()
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            values.add(int((task / "stat").read_text().rsplit(")", 1)[1].split()[16]))
+        except OSError:  # the thread ended meanwhile
+            continue
+    return values
+
+
+def test_the_gateway_process_runs_at_gateway_nice_with_its_heap_frozen():
+    """``gateway_nice``: every thread of the gateway child (gRPC's included, started after
+    the value was set), and only the gateway, when real time is on (as root the loop is
+    then SCHED_FIFO; otherwise it falls back with a warning and the gateway still gets its
+    value). With real time off the loop is an ordinary thread: the gateway keeps the
+    inherited value. A raised value here, which needs no privilege. Its heap is frozen once
+    started (no full collection of it while serving)."""
+    mine = os.getpriority(os.PRIO_PROCESS, 0)
+    target = min(19, mine + 4)
+    nice = f"gateway_nice={target}"
+    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250", "--set", nice)
+    d2 = None
+    try:
+        d.wait_ready()
+        (gateway,) = _children(d.proc.pid)
+        assert _nice_values(gateway) == {mine}  # realtime.enabled false: not applied
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0, d.log
+        d2 = Imotiond("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250", "--set", nice)
+        address = d2.wait_ready()
+        channel, stub = _stub(address)
+        assert stub.GetState(pb.GetStateRequest(), timeout=30.0).return_id.id == 0
+        channel.close()
+        (gateway,) = _children(d2.proc.pid)
+        assert _nice_values(gateway) == {target}
+        assert os.getpriority(os.PRIO_PROCESS, d2.proc.pid) == mine  # the control process
+        d2.proc.send_signal(signal.SIGTERM)
+        assert d2.wait_exit() == 0, d2.log
+    finally:
+        d.kill()
+        if d2 is not None:
+            d2.kill()
+    assert "gateway_nice not applied: realtime.enabled is false" in d.log
+    assert "not in effect" not in d2.log  # permitted: no warning
+    assert re.search(r"proc=gateway .*msg=\"\d+ objects frozen out of the full garbage", d2.log)
 
 
 def test_gateway_stops_when_imotiond_is_killed():

@@ -39,6 +39,8 @@ def test_unit_has_the_key_settings() -> None:
     assert svc["LimitMEMLOCK"] == "infinity"
     assert svc["RestrictRealtime"] == "no"
     assert "CPUSchedulingPolicy" not in svc  # the daemon makes only its loop thread FIFO
+    # the gateway may lower its nice value to the example configuration's gateway_nice
+    assert int(svc["LimitNICE"]) <= load_config(EXAMPLE).gateway_nice < 0
     assert svc["NoNewPrivileges"] == "yes"
     assert svc["ProtectSystem"] == "strict"
     assert "/run/imotion" in svc["ReadWritePaths"].split()

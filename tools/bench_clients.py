@@ -4,7 +4,7 @@ does the gateway answer reads under it?
 
 Usage: python tools/bench_clients.py [--seconds 10] [--clients 32] [--procs 4] [--rate 1000]
                                      [--poll-hz 20] [--set KEY=VALUE ...] [--root DIR]
-                                     [--modes process,thread]
+                                     [--modes process,thread] [--floor]
 
 For each gateway mode (``process``: gRPC in its own process, the shipped design; ``thread``:
 gRPC inside the control process, the peer) it starts ``imotiond --hal sim`` at ``--rate``
@@ -41,7 +41,14 @@ that overlapped a move command of the mover (the gateway was planning it;
 ``getstate_p99_during_moves_ms``, ``reads_during_moves``) and of the others
 (``getstate_p99_other_ms``), and how long the gateway's threads waited for a CPU while
 runnable (``gateway_runqueue_ms_per_s``, from /proc/PID/task/*/schedstat: the machine's
-share of the tail). For
+share of the tail). The paced phase also gives the round trip from the client's send
+(``getstate_p99_from_send_ms``) and how late the clients sent (``client_late_p99_ms``: they
+share the cores and wait for a CPU too); each client phase the gateway's CPU per call net of
+what it uses without clients (``gateway_net_cpu_us_per_call``; the mover's calls and
+planning: ``gateway_idle_cpu_ms_per_s``) and its nice value. ``--floor`` then points the
+same paced clients at a constant-reply grpcio server shaped like the gateway
+(tools/grpc_floor.py, at the gateway's nice value) beside the running daemon: grpcio's own
+cost and latency in the same minute (``<mode>.floor``). For
 reference it first measures the machine's floor: a bare SCHED_FIFO thread that only sleeps
 to 1 ms deadlines (on shared virtual cores even that is late now and then).
 """
@@ -91,6 +98,7 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
     counts = [0] * threads
     errors = [0] * threads
     latencies: list[list[float]] = [[] for _ in range(threads)]
+    late: list[list[float]] = [[] for _ in range(threads)]  #: sent after the due time [us]
     starts: list[list[float]] = [[] for _ in range(threads)]  # monotonic [s]
     connected = threading.Barrier(threads + 1)
     go = threading.Event()
@@ -120,9 +128,11 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
                 if n & 1:
                     stub.GetFeedbackPosCartesian(pose, timeout=5.0)
                 else:
-                    t0 = time.perf_counter() - max(0.0, time.monotonic() - due)
+                    behind = max(0.0, time.monotonic() - due)
+                    t0 = time.perf_counter() - behind
                     stub.GetState(state, timeout=5.0)
                     latencies[k].append((time.perf_counter() - t0) * 1e6)
+                    late[k].append(behind * 1e6)
                     starts[k].append(due)
                 counts[k] += 1
             except grpc.RpcError:
@@ -150,6 +160,7 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
         "errors": sum(errors),
         "cpu_s": cpu_s,
         "getstate_us": samples,
+        "getstate_late_us": [round(x, 1) for per_thread in late for x in per_thread],
         "getstate_start_s": begun,
     }
     print(json.dumps(out))
@@ -327,6 +338,41 @@ class Mover:
         self.channel.close()
 
 
+class Floor:
+    """tools/grpc_floor.py (a constant-reply grpcio server shaped like the gateway) beside
+    the daemon: the same clients at it give grpcio's own cost and latency at that minute."""
+
+    def __init__(self, daemon: Daemon, switch_interval: float, nice: int | None):
+        self.daemon = daemon
+        cmd = [sys.executable, str(ROOT / "tools" / "grpc_floor.py")]
+        cmd += ["--switch-interval", f"{switch_interval:g}"]
+        if nice is not None:  # the gateway's, for a like-for-like comparison
+            cmd += ["--nice", str(nice)]
+        self.proc = subprocess.Popen(
+            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=ROOT
+        )
+        assert self.proc.stdout is not None
+        line = self.proc.stdout.readline().strip()
+        if not line.startswith("READY "):
+            self.proc.kill()
+            raise RuntimeError(f"tools/grpc_floor.py did not start: {line!r}")
+        self.address = line.split(" ", 1)[1]
+
+    def gateway_pid(self) -> int:
+        return self.proc.pid
+
+    def cycles(self) -> int:
+        return self.daemon.cycles()
+
+    def stop(self) -> None:
+        self.proc.terminate()
+        try:
+            self.proc.wait(10.0)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+
+
 def phase_stats(wake: np.ndarray, compute: np.ndarray, period_us: float) -> dict[str, Any]:
     if wake.size == 0:
         return {"cycles": 0}
@@ -352,6 +398,16 @@ def cpu_seconds(pid: int | None) -> float:
     except OSError:
         return 0.0
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def nice_of(pid: int | None) -> int | None:
+    """The nice value of a process's main thread (None when unknown)."""
+    if pid is None:
+        return None
+    try:
+        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[16])
+    except (OSError, IndexError, ValueError):
+        return None
 
 
 def runqueue_seconds(pid: int | None) -> float:
@@ -385,13 +441,17 @@ def split_by_commands(
 
 
 def run_clients(
-    daemon: Daemon, args: argparse.Namespace, hz: float, mover: Mover | None = None
+    daemon: Daemon | Floor,
+    args: argparse.Namespace,
+    hz: float,
+    mover: Mover | None = None,
+    idle_cpu: float = 0.0,
 ) -> dict[str, Any]:
     """``--clients`` clients (``--procs`` processes) for ``--seconds``: as fast as they can
     (``hz`` 0) or each ``hz`` calls a second. getState round trips (all; those overlapping a
     move command of ``mover`` and the others), call rate, the CPU time per call of the
-    gateway process and of the clients [us], and how long the gateway's threads waited for
-    a CPU [ms per s]."""
+    gateway process (also net of ``idle_cpu``, its CPU rate without clients [s/s]) and of
+    the clients [us], and how long the gateway's threads waited for a CPU [ms per s]."""
     threads = -(-args.clients // args.procs)
     client_cmd = [sys.executable, __file__, "--client", daemon.address, "--hz", f"{hz:g}"]
     client_cmd += ["--threads", str(threads), "--seconds", str(args.seconds)]
@@ -422,6 +482,7 @@ def run_clients(
     client_cpu = 0.0
     getstate: list[float] = []
     starts: list[float] = []
+    late: list[float] = []  # how late the client thread sent each getState [us]
     for proc in clients:
         stdout, _ = proc.communicate(timeout=120.0)
         line = stdout.strip().splitlines()[-1] if stdout.strip() else "{}"
@@ -431,20 +492,30 @@ def run_clients(
         client_cpu += float(data.get("cpu_s", 0.0))
         getstate += data.get("getstate_us", [])
         starts += data.get("getstate_start_s", [])
+        late += data.get("getstate_late_us", [])
     out: dict[str, Any] = {"poll_hz": hz}
     if getstate:
         p50, p99 = np.percentile(getstate, [50.0, 99.0])
         out["getstate_p50_ms"] = round(float(p50) / 1e3, 2)
         out["getstate_p99_ms"] = round(float(p99) / 1e3, 2)
+        if hz > 0 and len(late) == len(getstate):
+            # The round trip from the moment the client sent: without the client's own
+            # wait for a CPU at its due time (on a busy machine the clients starve too).
+            sent = np.array(getstate) - np.array(late)
+            out["getstate_p99_from_send_ms"] = round(float(np.percentile(sent, 99.0)) / 1e3, 2)
+            out["client_late_p99_ms"] = round(float(np.percentile(late, 99.0)) / 1e3, 2)
         if mover is not None and len(starts) == len(getstate):
             out.update(split_by_commands(np.array(starts), np.array(getstate), mover.commands))
     out["calls_per_s"] = round(calls / args.seconds, 1)
     out["errors"] = errors
     if calls:
         out["gateway_cpu_us_per_call"] = round(gateway_cpu / calls * 1e6, 1)
+        net = gateway_cpu - idle_cpu * args.seconds
+        out["gateway_net_cpu_us_per_call"] = round(net / calls * 1e6, 1)
         out["client_cpu_us_per_call"] = round(client_cpu / calls * 1e6, 1)
     out["gateway_runqueue_ms_per_s"] = round(waited / args.seconds * 1e3, 1)
     out["load"] = round(os.getloadavg()[0], 2)
+    out["gateway_nice"] = nice_of(daemon.gateway_pid())
     out["cycles"] = (c2, c3)
     out["clients"] = threads * args.procs
     return out
@@ -472,17 +543,31 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         mover.start()
         time.sleep(args.warmup)
         c0 = daemon.cycles()
+        idle_cpu = cpu_seconds(daemon.gateway_pid())
+        t_idle = time.monotonic()
         time.sleep(args.seconds)
+        idle_cpu = (cpu_seconds(daemon.gateway_pid()) - idle_cpu) / (time.monotonic() - t_idle)
         c1 = daemon.cycles()
-        loaded = run_clients(daemon, args, 0.0, mover)
+        # What the gateway does without clients (the mover's calls and planning included).
+        result["gateway_idle_cpu_ms_per_s"] = round(idle_cpu * 1e3, 1)
+        loaded = run_clients(daemon, args, 0.0, mover, idle_cpu)
         c2, c3 = loaded.pop("cycles")
         result["clients"] = loaded.pop("clients")
         result["saturated"] = loaded
         result["phase_cycles"] = [c0, c1, c2, c3]
         if args.poll_hz > 0:
-            paced = run_clients(daemon, args, args.poll_hz, mover)
+            paced = run_clients(daemon, args, args.poll_hz, mover, idle_cpu)
             del paced["cycles"], paced["clients"]
             result["paced"] = paced
+            if args.floor:
+                nice = nice_of(daemon.gateway_pid())
+                floor = Floor(daemon, args.switch_interval or 0.0005, nice)
+                try:
+                    grpcio = run_clients(floor, args, args.poll_hz)
+                finally:
+                    floor.stop()
+                del grpcio["cycles"], grpcio["clients"]
+                result["floor"] = grpcio
     finally:
         if mover is not None:
             mover.stop()
@@ -536,7 +621,12 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
     print()
     for r in results:
         verdict = "PASS" if r["pass"] else "FAIL"
-        for name, what in (("saturated", "as fast as they can"), ("paced", "polling")):
+        phases = (
+            ("saturated", "as fast as they can"),
+            ("paced", "polling"),
+            ("floor", "polling grpcio's floor (tools/grpc_floor.py)"),
+        )
+        for name, what in phases:
             g = r.get(name)
             if g is None or "getstate_p99_ms" not in g:
                 continue
@@ -549,6 +639,20 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
                 f"CPU per call: gateway {g.get('gateway_cpu_us_per_call', 0):.0f} us, "
                 f"clients {g.get('client_cpu_us_per_call', 0):.0f} us; load {g['load']:.2f}"
             )
+            if name != "floor":
+                idle = r["gateway_idle_cpu_ms_per_s"]
+                print(
+                    f"{'':8s}   gateway CPU per call net of its {idle:.0f} ms/s without "
+                    "clients (the mover): "
+                    f"{g.get('gateway_net_cpu_us_per_call', 0):.0f} us; gateway nice "
+                    f"{g.get('gateway_nice')}"
+                )
+            if "getstate_p99_from_send_ms" in g:
+                sent, late = g["getstate_p99_from_send_ms"], g["client_late_p99_ms"]
+                print(
+                    f"{'':8s}   from the client's send: p99 {sent:.2f} ms; the clients sent "
+                    f"late by up to {late:.2f} ms (p99; their own wait for a CPU)"
+                )
             if "getstate_p99_during_moves_ms" in g:
                 print(
                     f"{'':8s}   p99 of the {g['reads_during_moves']} reads during a move "
@@ -595,6 +699,12 @@ def main() -> int:
         type=float,
         default=POLL_HZ,
         help="each client's call rate in the paced phase [Hz] (0: no paced phase)",
+    )
+    parser.add_argument(
+        "--floor",
+        action="store_true",
+        help="after the paced phase, the same clients at a constant-reply grpcio server "
+        "(tools/grpc_floor.py) beside the daemon: grpcio's own cost and latency",
     )
     parser.add_argument(
         "--root",

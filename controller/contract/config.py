@@ -177,6 +177,12 @@ class DaemonConfig(_Strict):
     #: thread planning a move keeps the GIL from the threads answering reads
     #: (docs/daemon.md, "Reads under client load"). ``gateway: process`` only.
     gateway_switch_interval_s: float = Field(default=0.0005, ge=1e-5, le=0.1)
+    #: The gateway process's nice value (CFS weight; ordinary processes: 0): below 0, its
+    #: threads get the CPU before the machine's other work. Needs root, CAP_SYS_NICE or a
+    #: nice limit (the systemd unit's ``LimitNICE=``); else a warning and the inherited
+    #: value. Only with ``realtime.enabled`` (an ordinary loop thread must not be outranked
+    #: by its gateway). Never real-time. ``gateway: process`` only (docs/daemon.md).
+    gateway_nice: int = Field(default=-5, ge=-20, le=19)
     security: SecurityConfig = SecurityConfig()
     jara: JaraConfig = JaraConfig()
     monitor: MonitorConfig = MonitorConfig()

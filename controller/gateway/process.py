@@ -37,6 +37,7 @@ from controller.gateway.observe.blackbox_writer import BlackBoxWriter
 from controller.gateway.observe.live_view import LiveView, start_live_view
 from controller.gateway.planning.planner import Planner
 from controller.gateway.planning.robot_view import RobotView
+from controller.gateway.scheduling import apply_nice, freeze_heap, leave_real_time
 from controller.gateway.services.context import Context
 from controller.gateway.services.registry import Services
 from controller.logs import setup_logging
@@ -241,6 +242,18 @@ def main(argv: list[str] | None = None) -> int:
     # poll thread, a worker, the poll thread again): at Python's 5 ms a read arriving during
     # planning waited up to ~20 ms (docs/daemon.md, "Reads under client load").
     sys.setswitchinterval(cfg.gateway_switch_interval_s)
+    # Before gRPC starts its threads (they inherit both): an ordinary process (never
+    # real-time, whoever started it), with its share of the CPU against the machine's other
+    # work (docs/daemon.md, "Reads under client load").
+    warning = leave_real_time()
+    if warning is not None:
+        _log.warning("%s", warning)
+    if cfg.realtime.enabled:  # the loop is real-time: out of the CFS competition
+        warning = apply_nice(cfg.gateway_nice)
+        if warning is not None:
+            _log.warning("%s", warning)
+    else:  # an ordinary loop thread: the gateway must not outrank it
+        _log.info("gateway_nice not applied: realtime.enabled is false")
     try:
         gateway = start_gateway(cfg, args.runtime)
     except Exception as exc:
@@ -255,6 +268,9 @@ def main(argv: list[str] | None = None) -> int:
         _log.error("gateway failed to start: %s", exc)
         print(f"FAILED {exc}", flush=True)
         return 1
+    # Everything is built: out of the full collections from now on (130-200 ms each, every
+    # read waiting for the GIL meanwhile).
+    _log.info("%d objects frozen out of the full garbage collections", freeze_heap())
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
     signal.signal(signal.SIGINT, lambda *_: done.set())

@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+"""grpcio's floor: a synchronous gRPC server shaped like the gateway (``--workers`` threads,
+the same call limit and GIL switch interval) whose getState and getFeedbackPosCartesian
+answer a constant message. What a read costs here is what grpcio costs, with none of ours.
+
+Usage: python tools/grpc_floor.py [--workers 16] [--switch-interval 0.0005] [--nice N]
+
+Prints ``READY host:port`` once listening (127.0.0.1, a port chosen by the system), then
+serves until stdin closes or SIGTERM. tools/bench_clients.py ``--floor`` runs it beside the
+daemon and points its paced clients at it, in the same minute as at the gateway.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import grpc
+
+from controller.gateway.scheduling import apply_nice
+from controller.rpc import imotion_pb2 as pb
+from controller.rpc import imotion_pb2_grpc as pb_grpc
+
+_OK = pb.ReturnID(id=0, comment="OK")
+STATE = pb.GetStateResponse(return_id=_OK, status_id=2, message="busy")
+POSE = pb.GetFeedbackPosCartesianResponse(
+    return_id=_OK,
+    pos=pb.CarPosWithElbow(
+        car_pos=pb.HgMatrix(m=[1.0, 0.0, 0.0, 412.5, 0.0, 1.0, 0.0, -230.1, 0.0, 0.0, 1.0, 815.3]),
+        elbow=12.5,
+    ),
+)
+
+
+class ConstantServicer(pb_grpc.IntegratedMotionServicer):
+    """getState and getFeedbackPosCartesian: the same ready message every time."""
+
+    def GetState(self, request: Any, context: Any) -> Any:
+        return STATE
+
+    def GetFeedbackPosCartesian(self, request: Any, context: Any) -> Any:
+        return POSE
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--workers", type=int, default=16)
+    parser.add_argument("--switch-interval", type=float, default=0.0005, help="[s]")
+    parser.add_argument("--nice", type=int, help="this nice value (as the gateway's)")
+    args = parser.parse_args()
+    sys.setswitchinterval(args.switch_interval)
+    if args.nice is not None:
+        warning = apply_nice(args.nice)
+        if warning is not None:
+            print(warning, file=sys.stderr)
+    server = grpc.server(
+        ThreadPoolExecutor(max_workers=args.workers), maximum_concurrent_rpcs=128 + 10
+    )
+    pb_grpc.add_IntegratedMotionServicer_to_server(ConstantServicer(), server)
+    port = server.add_insecure_port("127.0.0.1:0")
+    server.start()
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: done.set())
+    print(f"READY 127.0.0.1:{port}", flush=True)
+
+    def until_stdin_closes() -> None:
+        sys.stdin.read()
+        done.set()
+
+    threading.Thread(target=until_stdin_closes, daemon=True).start()
+    done.wait()
+    server.stop(0).wait(1.0)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
