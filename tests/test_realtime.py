@@ -180,7 +180,7 @@ def test_helper_threads_go_to_the_lowest_fifo_priority_and_back(monkeypatch):
     try:
         report = apply_realtime(priority=80, freeze_gc=False)
         assert (thread.native_id, "helper-under-test") in report.helpers
-        assert (thread.native_id, os.SCHED_FIFO, 1) in calls
+        assert (thread.native_id, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 1) in calls
         assert all(tid != threading.get_native_id() for tid, _ in report.helpers)
         calls.clear()
         restore(report)
@@ -297,7 +297,9 @@ def test_real_call_in_a_child_process(unprivileged: bool):
         "before = os.sched_getscheduler(0)\n"
         "r = apply_realtime(priority=10)\n"
         "during = os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK\n"
-        "helper_during = os.sched_getscheduler(helper.native_id)\n"
+        "helper_policy = os.sched_getscheduler(helper.native_id)\n"
+        "helper_during = helper_policy & ~os.SCHED_RESET_ON_FORK\n"
+        "helper_resets = bool(helper_policy & os.SCHED_RESET_ON_FORK)\n"
         "started = []\n"
         "later = threading.Thread(target=lambda: started.append(os.sched_getscheduler(0)))\n"
         "later.start(); later.join()\n"
@@ -309,7 +311,8 @@ def test_real_call_in_a_child_process(unprivileged: bool):
         "print(json.dumps({'flags': flags, 'messages': r.messages, 'before': before,\n"
         "  'during': during, 'after': os.sched_getscheduler(0), 'frozen': frozen,\n"
         "  'unfrozen': gc.get_freeze_count(), 'fifo': os.SCHED_FIFO,\n"
-        "  'helper': [helper_during, helper_after], 'later': started[0]}))\n"
+        "  'helper': [helper_during, helper_after], 'later': started[0],\n"
+        "  'helper_resets': helper_resets}))\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60
@@ -323,6 +326,8 @@ def test_real_call_in_a_child_process(unprivileged: bool):
     # The other thread at FIFO 1 while the loop is real-time, and back; a thread the loop
     # thread starts is an ordinary one (SCHED_RESET_ON_FORK), never at the loop's priority.
     assert result["helper"] == ([result["fifo"], 0] if fifo else [0, 0])
+    # ...and what a helper starts (a restarted gateway process) is ordinary again.
+    assert result["helper_resets"] == fifo
     assert result["later"] == 0
     # Every measure not in effect has its one-line message, and each was logged once.
     assert len(result["messages"]) == (not fifo) + (not locked)

@@ -15,8 +15,9 @@ recorded in the returned :class:`RealtimeReport`. :func:`restore` undoes what to
   while it holds the GIL makes the loop wait until it runs again, milliseconds on a busy
   machine (``tools/bench_loop.py``, 30 s at load 2.5: compute p99 776 -> 536 µs, late
   cycles 5 -> 2). At the lowest real-time priority they still yield to the loop, but no
-  ordinary process preempts them. Threads they start inherit it. Start helper threads before
-  the call.
+  ordinary process preempts them. With SCHED_RESET_ON_FORK too: what they start later
+  (threads, and processes such as a restarted gateway) is ordinary. Start helper threads
+  before the call.
 * **mlockall(MCL_CURRENT | MCL_FUTURE)** through libc (ctypes): page faults no longer stall
   the loop. Process-wide. Needs CAP_IPC_LOCK or a large enough ``RLIMIT_MEMLOCK``
   (``LimitMEMLOCK=infinity``).
@@ -192,7 +193,8 @@ def _set_helpers(report: RealtimeReport, priority: int) -> None:
         try:
             if os.sched_getscheduler(tid) != os.SCHED_OTHER:
                 continue
-            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))
+            policy = os.SCHED_FIFO | getattr(os, "SCHED_RESET_ON_FORK", 0)
+            os.sched_setscheduler(tid, policy, os.sched_param(priority))
         except OSError as exc:  # ended meanwhile, or refused: it stays an ordinary thread
             if not isinstance(exc, ProcessLookupError):
                 report.messages.append(
