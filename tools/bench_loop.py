@@ -36,7 +36,7 @@ and late counts follow. The last line is a JSON object.
 After each run, the last cycle's kinematics update and IK solve run again with the same
 inputs for ``--spread-seconds`` in the same kind of loop: their thread CPU time p50/p99
 is the machine's own spread for identical work (on this shared 2-core VM p99/p50 was
-1.5-2.5 for the same solve), the peer the mix's p99/p50 is compared with.
+1.2-1.3 at load 1, 1.7-3.0 at load 5), the peer the mix's p99/p50 is compared with.
 
 The breakdown wraps the pieces with timers from outside (nothing in the core knows): about
 1 µs of overhead per piece, included in the compute time; ``--no-breakdown`` leaves them out
