@@ -243,15 +243,10 @@ class UnixBus(can.BusABC):
             records: list[bytes] = []
             gone = []
             for fd, peer in self._peers.items():
-                try:
-                    record = peer.recv(MAX_RECORD)
-                except BlockingIOError:
-                    continue
-                except OSError:
-                    record = b""
+                record = _read_record(peer)
                 if record:
                     records.append(record)
-                else:  # the peer closed its end
+                elif record is not None:  # the peer closed its end
                     gone.append(fd)
             for fd in gone:
                 self._forget(fd)
@@ -336,15 +331,10 @@ class UnixBus(can.BusABC):
             peer = self._peers.get(fd)
             if peer is None:
                 continue
-            try:
-                record = peer.recv(MAX_RECORD)
-            except BlockingIOError:
-                continue
-            except OSError:
-                record = b""
+            record = _read_record(peer)
             if record:
                 records.append(record)
-            else:  # the peer closed its end
+            elif record is not None:  # the peer closed its end
                 self._forget(fd)
         return records
 
@@ -453,3 +443,14 @@ def register() -> None:
     interfaces.VALID_INTERFACES = valid
     util.VALID_INTERFACES = valid
     can.VALID_INTERFACES = valid
+
+
+def _read_record(peer: socket.socket) -> bytes | None:
+    """One record from ``peer``: None when none is waiting, b"" when the peer closed (or
+    failed)."""
+    try:
+        return peer.recv(MAX_RECORD)
+    except BlockingIOError:
+        return None
+    except OSError:
+        return b""
