@@ -539,8 +539,9 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         rid = daemon.a.ServoOn(pb.ServoOnRequest()).return_id
         if rid.id != 0:
             raise RuntimeError(f"servoOn refused: {rid.comment}")
-        mover = Mover(daemon.address)
-        mover.start()
+        if not args.no_mover:
+            mover = Mover(daemon.address)
+            mover.start()
         time.sleep(args.warmup)
         c0 = daemon.cycles()
         idle_cpu = cpu_seconds(daemon.gateway_pid())
@@ -699,6 +700,12 @@ def main() -> int:
         type=float,
         default=POLL_HZ,
         help="each client's call rate in the paced phase [Hz] (0: no paced phase)",
+    )
+    parser.add_argument(
+        "--no-mover",
+        action="store_true",
+        help="no move running (no planning in the gateway): to tell its share of the reads' "
+        "tail from the rest",
     )
     parser.add_argument(
         "--floor",
