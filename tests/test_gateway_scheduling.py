@@ -136,7 +136,9 @@ def test_freeze_heap_leaves_the_full_collections_little_to_traverse():
     tracked = len(gc.get_objects())
     try:
         frozen = scheduling.freeze_heap()
-        assert frozen == gc.get_freeze_count() >= tracked // 2
+        # Frozen objects that die are still freed (and leave the permanent generation), so
+        # the count read again can only be lower: not equal (it was, flakily).
+        assert frozen >= gc.get_freeze_count() >= tracked // 2
         assert len(gc.get_objects()) < tracked // 10
     finally:
         gc.unfreeze()
