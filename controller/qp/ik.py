@@ -47,6 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from controller.model import jit
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, available_axes
 from controller.qp.constraints import (
@@ -56,12 +57,16 @@ from controller.qp.constraints import (
     CycleState,
     JointBox,
 )
+from controller.qp.cost_kernel import least_squares
 from controller.qp.layout import Layout, LayoutCache
 from controller.qp.solver import DEFAULT_SOLVER, QPSolver, make_solver
 from controller.qp.tasks import Task
 
 #: Tikhonov damping λ on the joint velocities.
 DAMPING = 1e-9
+#: No frozen joint moves: the compiled cost's empty ``fixed`` and ``v_fixed``.
+_NONE_FIXED = np.zeros(0, dtype=np.int64)
+_NO_VELOCITY = np.zeros(0)
 
 
 @dataclass
@@ -87,6 +92,10 @@ class _Stack:
         #: same-shape product, several times cheaper in NumPy than by broadcasting.
         self._wide_weight = np.zeros((m, kin.nv), order="F")
         self._weight_key: bytes | None = None
+        #: The compiled cost's outputs by number of free joints, and its scratch.
+        self._normal: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._scratch = np.zeros((2, m))
+        self._compiled = jit.available()
         self.bind(tasks, kin)
 
     def bind(self, tasks: list[Task], kin: Kinematics) -> None:
@@ -115,7 +124,24 @@ class _Stack:
 
     def cost(self, layout: Layout, v_fixed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Hessian and gradient of Σ ‖J v − e‖²_W + λ‖v‖² over the free joints; ``v_fixed``:
-        the frozen joints' velocities (None when all zero)."""
+        the frozen joints' velocities (None when all zero). Compiled
+        (:mod:`controller.qp.cost_kernel`, into buffers of this stack that the next call
+        overwrites) where numba is, else NumPy."""
+        if self._compiled:
+            n = layout.n
+            out = self._normal.get(n)
+            if out is None:
+                out = self._normal[n] = (np.zeros((n, n)), np.zeros(n))
+            H, g = out
+            if v_fixed is None:
+                fixed, v_fixed = _NONE_FIXED, _NO_VELOCITY
+            else:
+                fixed = layout.fixed
+            least_squares(
+                self.jac, self.rate, self.weight, layout.free_index, fixed, v_fixed,
+                layout.damping_value, H, g, self._scratch,
+            )  # fmt: skip
+            return H, g
         key = self.weight.tobytes()
         if key != self._weight_key:
             self._weight_key = key

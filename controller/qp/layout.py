@@ -88,7 +88,10 @@ class Layout:
         self.has_fixed = len(self.fixed) > 0
         contiguous = n > 0 and free[-1] - free[0] + 1 == n
         self.free: slice | np.ndarray = slice(free[0], free[-1] + 1) if contiguous else free
-        #: λ·I over the free joints.
+        #: The free joints as indices, always (for compiled code).
+        self.free_index = free.astype(np.int64)
+        #: λ, and λ·I over the free joints.
+        self.damping_value = float(damping)
         self.damping = damping * np.eye(n)
 
         def only_frozen(c: Constraint) -> bool:
