@@ -98,6 +98,7 @@ def test_a_posture_path_interpolates_and_clamps():
         PosturePath(np.array([0.0]), np.zeros((1, 2)))
 
 
+@pytest.mark.usefixtures("jit_backend")
 def test_the_loop_posture_follows_the_path_then_stands():
     path = PosturePath(np.array([0.0, 1.0]), np.array([[0.0, 0.0], [1.0, -1.0]]))
     task = PostureTask(np.zeros(2), np.arange(2))
@@ -108,6 +109,24 @@ def test_the_loop_posture_follows_the_path_then_stands():
     follow_posture(task, path, 1.0, 1.0, 0.01)
     np.testing.assert_allclose(task.reference, [0.7, 0.7])
     np.testing.assert_array_equal(task.rate, 0.0)
+
+
+def test_the_compiled_follow_matches_the_python_one_on_every_segment_and_past_the_ends():
+    rng = np.random.default_rng(7)
+    grid = np.concatenate([[0.0], np.sort(rng.uniform(0.0, 1.0, 8)), [1.0]])
+    path = PosturePath(grid, rng.normal(size=(len(grid), 5)))
+    joints = np.array([4, 0, 2])
+    for s0 in [-0.5, 0.0, *rng.uniform(0.0, 1.0, 20), 1.0]:
+        s1 = s0 + 0.013
+        out = []
+        for compiled in (True, False):
+            path._compiled = compiled
+            reference, rate = np.zeros(5), np.zeros(3)
+            path.follow(s0, s1, 0.004, joints, reference, rate)
+            out.append((reference, rate))
+        np.testing.assert_allclose(out[0][0], out[1][0], rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(out[0][1], out[1][1], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(out[1][0], path.at(s0), rtol=1e-12, atol=1e-15)
 
 
 def test_off_limits_draws_a_posture_out_of_the_zones_by_the_end_of_the_path():

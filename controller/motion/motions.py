@@ -151,9 +151,7 @@ def follow_posture(task: PostureTask, path: PosturePath, s0: float, s1: float, d
     if s1 <= s0:
         task.rate[...] = 0.0
         return
-    now = path.at(s0)
-    task.reference[...] = now
-    task.rate[...] = (path.at(s1) - now)[task.joints] / dt
+    path.follow(s0, s1, dt, task.joints, task.reference, task.rate)
 
 
 def _posture(kin: Kinematics) -> PostureTask:

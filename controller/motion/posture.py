@@ -21,7 +21,11 @@ the line ends on the checked configuration.
 
 from __future__ import annotations
 
+import bisect
+
 import numpy as np
+
+from controller.model import jit
 
 #: Largest posture weight (a joint at or beyond a limit); the others are 1 at mid-range.
 MAX_WEIGHT = 1e4
@@ -94,20 +98,91 @@ class PosturePath:
     :attr:`q` one row per sample, every joint [rad, m]); linear between samples."""
 
     def __init__(self, s: np.ndarray, q: np.ndarray):
-        self.s = np.asarray(s, dtype=float)
-        self.q = np.asarray(q, dtype=float)
+        # Own contiguous copies: the compiled code is built for those (at import, not in a
+        # control cycle).
+        self.s = np.array(s, dtype=float)
+        self.q = np.array(q, dtype=float)
         if self.s.ndim != 1 or self.q.shape[0] != len(self.s) or len(self.s) < 2:
             raise ValueError("a posture path needs two samples or more, one q per s")
         if np.any(np.diff(self.s) <= 0.0):
             raise ValueError("posture path parameters must increase")
+        #: The samples' s as a list (``bisect`` on it beats ``np.searchsorted``'s dispatch),
+        #: and each segment's change of q.
+        self._grid: list[float] = self.s.tolist()
+        self._dq = np.diff(self.q, axis=0)
+        self._compiled = jit.available()
 
     def at(self, s: float) -> np.ndarray:
         """Configuration at path parameter ``s`` (clamped to the samples)."""
-        grid = self.s
+        grid = self._grid
         if s <= grid[0]:
             return self.q[0].copy()
         if s >= grid[-1]:
             return self.q[-1].copy()
-        k = int(np.searchsorted(grid, s, side="right")) - 1
+        k = bisect.bisect_right(grid, s) - 1
         t = (s - grid[k]) / (grid[k + 1] - grid[k])
-        return self.q[k] + t * (self.q[k + 1] - self.q[k])
+        return self.q[k] + t * self._dq[k]
+
+    def follow(
+        self,
+        s0: float,
+        s1: float,
+        dt: float,
+        joints: np.ndarray,
+        reference: np.ndarray,
+        rate: np.ndarray,
+    ) -> None:
+        """``reference`` := the configuration at ``s0`` (every joint), ``rate`` := the
+        average rate [rad/s, m/s] of ``joints`` from ``s0`` to ``s1`` over ``dt`` [s]: a
+        regularisation posture on the path, in one call every cycle (compiled where numba
+        is)."""
+        if self._compiled:
+            _follow(self.s, self.q, self._dq, s0, s1, dt, joints, reference, rate)
+            return
+        now = self.at(s0)
+        reference[...] = now
+        rate[...] = (self.at(s1) - now)[joints] / dt
+
+
+@jit.jit
+def _interpolate(grid: np.ndarray, q: np.ndarray, dq: np.ndarray, s: float, out: np.ndarray):
+    """:meth:`PosturePath.at` into ``out``."""
+    n = grid.shape[0]
+    if s <= grid[0]:
+        out[:] = q[0]
+        return
+    if s >= grid[n - 1]:
+        out[:] = q[n - 1]
+        return
+    k = np.searchsorted(grid, s, side="right") - 1
+    t = (s - grid[k]) / (grid[k + 1] - grid[k])
+    for j in range(out.shape[0]):
+        out[j] = q[k, j] + t * dq[k, j]
+
+
+@jit.jit
+def _follow(
+    grid: np.ndarray,
+    q: np.ndarray,
+    dq: np.ndarray,
+    s0: float,
+    s1: float,
+    dt: float,
+    joints: np.ndarray,
+    reference: np.ndarray,
+    rate: np.ndarray,
+) -> None:
+    """:meth:`PosturePath.follow` compiled."""
+    _interpolate(grid, q, dq, s0, reference)
+    nxt = np.empty(q.shape[1])
+    _interpolate(grid, q, dq, s1, nxt)
+    for i in range(joints.shape[0]):
+        j = joints[i]
+        rate[i] = (nxt[j] - reference[j]) / dt
+
+
+if jit.available():  # compile (or load) at import, for the arrays a path owns: never in a cycle
+    _follow(
+        np.array([0.0, 1.0]), np.zeros((2, 1)), np.zeros((1, 1)), 0.2, 0.3, 1e-3,
+        np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros(1),
+    )  # fmt: skip

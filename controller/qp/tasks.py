@@ -214,8 +214,9 @@ class PostureTask(Task):
     ):
         self.level = level
         self.rate = np.zeros(len(joints))
-        self.reference = np.asarray(reference, dtype=float)
-        self.joints = np.asarray(joints, dtype=int)
+        # Own copies, contiguous and writable (what the compiled posture path is built for).
+        self.reference = np.array(reference, dtype=float)
+        self.joints = np.array(joints, dtype=np.int64)
         self.gain = gain
         self.weight = np.full(len(self.joints), weight)
         self._jac: np.ndarray | None = None
