@@ -318,10 +318,13 @@ def test_collision_distances_are_updated_once_per_cycle_while_the_ik_solves():
 def test_the_control_cycle_never_waits_for_a_compiler():
     """The compiled kernels (collision, elbow, cost, posture path) are compiled or loaded
     from numba's cache when the core is built: cycles that solve (an elbow swing: every kernel
-    runs, the cost of both levels) and a posture path followed add no signature."""
+    runs, the cost of both levels), a posture path followed and a line's pose add no
+    signature."""
+    import pinocchio as pin
+
     from controller.model import collision_kernel, elbow, jit
     from controller.model.redundant_axes import elbow_axis
-    from controller.motion import posture
+    from controller.motion import paths, posture
     from controller.motion.motions import CPHoldMotion, follow_posture
     from controller.qp import cost_kernel, tasks
     from controller.qp.constraints import damper_kernel, joint_box
@@ -339,6 +342,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         tasks._pose_error,
         cost_kernel.least_squares,
         posture._follow,
+        paths._line_pose,
     )
     before = [len(k.signatures) for k in kernels]
     assert all(before)
@@ -353,4 +357,6 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     q = core.kin.q
     path = posture.PosturePath(np.array([0.0, 1.0]), np.vstack([q, q + 0.1]))
     follow_posture(tasks.PostureTask(q.copy(), np.arange(len(q))), path, 0.2, 0.3, DT)
+    hand = core.kin.pose(side)
+    paths.LinePath(hand, pin.SE3(hand.rotation, hand.translation + 0.1)).at(0.3)
     assert [len(k.signatures) for k in kernels] == before

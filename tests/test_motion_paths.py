@@ -108,6 +108,24 @@ def test_line_path_runs_from_start_to_end(start, p_end, rot):
 
 
 @SETTINGS
+@given(start=poses, p_end=vec3, rot=rotation_vector(3.1), s=unit_s, tiny=st.booleans())
+def test_line_path_poses_are_the_same_compiled_and_through_pinocchio(start, p_end, rot, s, tiny):
+    """LinePath.at's compiled Rodrigues formula against pin.exp3, also at angles where it
+    takes its series (θ < 1e-4)."""
+    if tiny:
+        rot = rot * 1e-6
+    path = LinePath(start, pin.SE3(start.rotation @ pin.exp3(rot), p_end))
+    path._compiled = True
+    compiled = path.at(s)
+    path._compiled = False
+    through_pinocchio = path.at(s)
+    np.testing.assert_allclose(compiled.rotation, through_pinocchio.rotation, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(
+        compiled.translation, through_pinocchio.translation, rtol=0, atol=1e-14
+    )
+
+
+@SETTINGS
 @given(start=poses, p_end=vec3, rot=rotation_vector(3.0), s=unit_s)
 def test_line_path_is_linear_in_position_and_on_the_geodesic_in_orientation(start, p_end, rot, s):
     path = LinePath(start, pin.SE3(start.rotation @ pin.exp3(rot), p_end))

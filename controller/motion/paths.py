@@ -20,6 +20,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from controller.model import jit
+
 #: Extents below this count as "no motion" on that component.
 TINY = 1e-12
 
@@ -72,6 +74,10 @@ class LinePath:
         self._r0, self._p0 = start.rotation.copy(), start.translation.copy()
         #: Twist for ṡ = 1 [m, rad per unit of s]: linear then angular, world axes.
         self._twist_per_s = np.concatenate([self.dp, self.omega_world])
+        #: :meth:`at` compiled (every cycle of a Cartesian move), into these buffers.
+        self._compiled = jit.available()
+        self._rotation = np.zeros((3, 3))
+        self._position = np.zeros(3)
 
     @property
     def length(self) -> float:
@@ -85,6 +91,9 @@ class LinePath:
 
     def at(self, s: float) -> pin.SE3:
         s = _clamp(s)
+        if self._compiled:
+            _line_pose(self._r0, self._p0, self.omega, self.dp, s, self._rotation, self._position)
+            return pin.SE3(self._rotation, self._position)
         return pin.SE3(self._r0 @ pin.exp3(s * self.omega), self._p0 + s * self.dp)
 
     def rotation_at(self, s: float) -> np.ndarray:
@@ -112,6 +121,43 @@ class LinePath:
         """Values of s at most ``step`` [m] / ``angle_step`` [rad] apart (ends included)."""
         n = max(2, math.ceil(max(self.length / step, self.angle / angle_step)) + 1)
         return [i / (n - 1) for i in range(n)]
+
+
+@jit.jit
+def _line_pose(
+    r0: np.ndarray,
+    p0: np.ndarray,
+    omega: np.ndarray,
+    dp: np.ndarray,
+    s: float,
+    rotation: np.ndarray,
+    position: np.ndarray,
+) -> None:
+    """:meth:`LinePath.at` compiled: ``rotation`` := r0 · exp3(s·omega) (Rodrigues),
+    ``position`` := p0 + s·dp."""
+    wx, wy, wz = s * omega[0], s * omega[1], s * omega[2]
+    theta2 = wx * wx + wy * wy + wz * wz
+    theta = math.sqrt(theta2)
+    if theta < 1e-4:  # sin θ/θ and (1 − cos θ)/θ² by their series
+        a = 1.0 - theta2 / 6.0
+        b = 0.5 - theta2 / 24.0
+    else:
+        a = math.sin(theta) / theta
+        b = (1.0 - math.cos(theta)) / theta2
+    e = np.empty((3, 3))
+    e[0, 0] = 1.0 - b * (wy * wy + wz * wz)
+    e[1, 1] = 1.0 - b * (wx * wx + wz * wz)
+    e[2, 2] = 1.0 - b * (wx * wx + wy * wy)
+    e[0, 1] = b * wx * wy - a * wz
+    e[1, 0] = b * wx * wy + a * wz
+    e[0, 2] = b * wx * wz + a * wy
+    e[2, 0] = b * wx * wz - a * wy
+    e[1, 2] = b * wy * wz - a * wx
+    e[2, 1] = b * wy * wz + a * wx
+    for i in range(3):
+        for j in range(3):
+            rotation[i, j] = r0[i, 0] * e[0, j] + r0[i, 1] * e[1, j] + r0[i, 2] * e[2, j]
+        position[i] = p0[i] + s * dp[i]
 
 
 class ArcPath:
@@ -191,3 +237,7 @@ class ArcPath:
     def samples(self, step: float = 0.01, angle_step: float = math.radians(2)) -> list[float]:
         n = max(3, math.ceil(max(self.length / step, self.angle / angle_step)) + 1)
         return [i / (n - 1) for i in range(n)]
+
+
+if jit.available():  # compile (or load) at import: never in a control cycle
+    _line_pose(np.eye(3), np.zeros(3), np.zeros(3), np.zeros(3), 0.5, np.zeros((3, 3)), np.zeros(3))
