@@ -323,11 +323,11 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     import pinocchio as pin
 
     from controller.model import collision_kernel, elbow, jit
-    from controller.model.redundant_axes import elbow_axis
+    from controller.model.redundant_axes import RedundantAxis, elbow_axis
     from controller.motion import paths, posture
-    from controller.motion.motions import CPHoldMotion, follow_posture
+    from controller.motion.motions import CartesianMotion, CPHoldMotion, follow_posture
     from controller.qp import cost_kernel, tasks
-    from controller.qp.constraints import damper_kernel, joint_box
+    from controller.qp.constraints import axes_kernel, damper_kernel, joint_box
 
     if not jit.available():
         pytest.skip("numba not installed")
@@ -343,6 +343,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         cost_kernel.least_squares,
         posture._follow,
         paths._line_pose,
+        axes_kernel.axis_bounds,
     )
     before = [len(k.signatures) for k in kernels]
     assert all(before)
@@ -357,6 +358,15 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     q = core.kin.q
     path = posture.PosturePath(np.array([0.0, 1.0]), np.vstack([q, q + 0.1]))
     follow_posture(tasks.PostureTask(q.copy(), np.arange(len(q))), path, 0.2, 0.3, DT)
+    while core.motion is not None:
+        core.cycle()
+    # A line with the elbow held: the axis rows kernel runs.
     hand = core.kin.pose(side)
-    paths.LinePath(hand, pin.SE3(hand.rotation, hand.translation + 0.1)).at(0.3)
+    line = paths.LinePath(hand, pin.SE3(hand.rotation, hand.translation + 0.02))
+    held = {elbow_axis(side): False, RedundantAxis.LUMBAR_RY: False}
+    span = {RedundantAxis.VEHICLE_THETA: (-0.1, 0.1)}
+    core.start(CartesianMotion(core.kin, DT, side, line, (0.05, 1.0), (0.5, 2.0), held, span))
+    for _ in range(30):
+        core.cycle()
+    assert core.motion is not None and core.ik.rows.limit.max_rows >= 1  # the held elbow
     assert [len(k.signatures) for k in kernels] == before

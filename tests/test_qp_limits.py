@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from controller.model.redundant_axes import RedundantAxis, available_axes
 from controller.qp.constraints import INF, AxisRows, ConstraintSetup, JointBox, braking_speed
-from controller.vocabulary import UnitType
+from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
 
 
@@ -214,3 +214,53 @@ def test_the_compiled_box_equals_the_numpy_one():
         a, b = compiled.compute_qp_bounds(q, v), plain.compute_qp_bounds(q, v)
         np.testing.assert_array_equal(a[0], b[0])
         np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_the_compiled_axis_rows_equal_the_python_ones():
+    """axes_kernel.axis_bounds (numba) against AxisLimit's Python code: held elbows (one of
+    them nearly stretched), a held vehicle heading, lumbar ranges inside and outside, with and
+    without the cycle's joint box, at random postures."""
+    import pytest
+
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("numba not installed")
+    kin = kinematics("smartpal5")
+    axes = available_axes(kin)
+    compiled, plain = AxisRows(kin, axes, 0.001), AxisRows(kin, axes, 0.001)
+    plain.limit._compiled = False
+    rng = np.random.default_rng(11)
+    elbow = kin.index("r_arm_j4")
+
+    def offset_at(angle: float) -> float:
+        q = kin.home()
+        q[elbow] = angle
+        kin.update(q)
+        return kin.elbow_offset(RightLeft.RIGHT)
+
+    straight = min(np.linspace(0.0, 0.2, 401), key=offset_at)  # the arm's stretched angle
+    for trial in range(40):
+        q = kin.home() + rng.normal(scale=0.2, size=kin.nv)
+        if trial % 5 == 0:
+            q[elbow] = straight  # the right arm stretched: its held elbow is left free
+        kin.update(kin.home())
+        held = {RedundantAxis.RIGHT_ELBOW: False, RedundantAxis.LEFT_ELBOW: False}
+        if RedundantAxis.VEHICLE_THETA in axes:
+            held[RedundantAxis.VEHICLE_THETA] = False
+        lumbar = (-0.05, 0.05) if trial % 2 else (0.3, 0.6)  # around home / beyond it
+        ranges = {RedundantAxis.LUMBAR_RY: lumbar}
+        frozen = np.zeros(kin.nv, dtype=bool)
+        for rows in (compiled, plain):
+            rows.configure(kin, held, ranges, frozen)
+        kin.update(q)
+        width = rng.uniform(0, 0.01, (2, kin.nv))
+        box = () if trial % 3 == 0 else (-width[0], width[1])
+        C1, lo1, hi1 = (a.copy() for a in compiled.rows(kin, *box))
+        C0, lo0, hi0 = plain.rows(kin, *box)
+        np.testing.assert_array_equal(C1, C0)
+        np.testing.assert_allclose(lo1, lo0, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(hi1, hi0, rtol=1e-12, atol=1e-12)
+        stretched = kin.elbow_offset(RightLeft.RIGHT) < 0.01
+        assert stretched == (trial % 5 == 0)  # both cases are met
+        assert (lo1[axes.index(RedundantAxis.RIGHT_ELBOW)] == -INF) == stretched

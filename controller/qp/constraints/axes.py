@@ -21,8 +21,10 @@ import math
 
 import numpy as np
 
+from controller.model import jit
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_joints, axis_value
+from controller.qp.constraints import axes_kernel
 from controller.qp.constraints.braking import BRAKING_SHARE, braking_speed
 from controller.qp.constraints.drive import DifferentialDrive
 from controller.qp.constraints.protocol import (
@@ -78,6 +80,15 @@ class AxisLimit:
         self.active = np.zeros(0, dtype=int)
         self.max_rows = 0
         self._pos = self._neg = np.zeros((0, kin.nv))
+        #: The compiled bounds (:mod:`.axes_kernel`) and their per-row arrays, set by
+        #: :meth:`configure`: kind, angle wrap, value now, held value or range.
+        self._compiled = jit.available()
+        self._kind = np.zeros(0, dtype=np.int64)
+        self._wrap = np.zeros(0, dtype=np.bool_)
+        self._value = self._first = self._second = np.zeros(0)
+        #: (row, side) of the held elbows (free while nearly stretched).
+        self._held_elbows: list[tuple[int, RightLeft]] = []
+        self._no_box = np.zeros(kin.nv)
 
     def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
         """Masked axes are held at their values in ``kin``'s last update."""
@@ -105,6 +116,16 @@ class AxisLimit:
         self.max_rows = n = len(active)
         if len(self._pos) != n:  # scratch of the rows' shape (its contents never matter)
             self._pos, self._neg = np.zeros((n, kin.nv)), np.zeros((n, kin.nv))
+        kind = np.full(n, axes_kernel.RANGED, dtype=np.int64)
+        first, second = np.zeros(n), np.zeros(n)
+        wrap = np.zeros(n, dtype=np.bool_)
+        for k, _, value, side in held:
+            kind[k], first[k], wrap[k] = axes_kernel.HELD, value, side is not None
+        for k, _, rmin, rmax in ranged:
+            first[k], second[k] = rmin, rmax
+        self._kind, self._wrap, self._first, self._second = kind, wrap, first, second
+        self._value = np.zeros(n)
+        self._held_elbows = [(k, side) for k, _, _, side in held if side is not None]
 
     def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
         kin, lb, ub, dt = cycle.kin, cycle.lb, cycle.ub, self.dt
@@ -114,6 +135,20 @@ class AxisLimit:
             return 0
         for k, axis in self._rows:
             C[k] = axis_jacobian(kin, axis)
+        if self._compiled:
+            value, kind = self._value, self._kind
+            for k, axis in self._rows:
+                value[k] = axis_value(kin, axis)
+            for k, side in self._held_elbows:  # nearly stretched: no elbow angle to hold
+                stretched = kin.elbow_offset(side) < HOLD_MIN_ELBOW_OFFSET
+                kind[k] = axes_kernel.FREE if stretched else axes_kernel.HELD
+            box = lb is not None and ub is not None
+            axes_kernel.axis_bounds(
+                C, self._no_box if lb is None else lb, self._no_box if ub is None else ub,
+                box, kind, self._wrap, value, self._first, self._second, self._a_max, dt,
+                HOLD_FRACTION, REACH_MARGIN, lo, hi,
+            )  # fmt: skip
+            return n
         # What the cycle's joint box lets each row reach, all rows at once.
         box = lb is not None and ub is not None
         if lb is not None and ub is not None:

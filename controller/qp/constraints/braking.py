@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+from controller.model import jit
 from controller.qp.constraints.protocol import INF
 
 #: Braking distances are planned at this share of the acceleration limit. A joint that brakes
@@ -35,3 +36,8 @@ def braking_speed(distance: float, accel: float, dt: float) -> float:
         return INF
     a_dt = accel * dt
     return math.sqrt(a_dt * a_dt + 2.0 * accel * distance) - a_dt
+
+
+#: :func:`braking_speed` for compiled code (the compiled axis rows, :mod:`.axes_kernel`, call
+#: it); Python callers use the plain function.
+compiled_braking_speed = jit.jit(braking_speed)
