@@ -340,6 +340,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         elbow.elbow_rows,
         joint_box.box_bounds,
         tasks._pose_error,
+        tasks._control_point_rows,
         cost_kernel.least_squares,
         posture._follow,
         paths._line_pose,

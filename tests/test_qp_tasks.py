@@ -1,4 +1,5 @@
-"""controller.qp.tasks: the pose error, compiled and not, against Pinocchio."""
+"""controller.qp.tasks: the pose error and the control-point rows, compiled and not, against
+Pinocchio."""
 
 from __future__ import annotations
 
@@ -65,3 +66,37 @@ def test_posture_tasks_over_the_same_joints_share_one_read_only_jacobian() -> No
     every = tasks.PostureTask(np.zeros(nv), np.arange(nv))
     assert np.array_equal(every._jacobian(nv), np.eye(nv)) and every._every and not a._every
     assert tasks.PostureTask(np.zeros(nv), np.array([3, 1]))._jacobian(nv)[0, 3] == 1.0
+
+
+@pytest.mark.skipif(not jit.available(), reason="numba not installed")
+def test_control_point_rows_are_the_same_compiled_and_through_pinocchio(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """ControlPointTask.compute_into: Jacobian rows and rate from one compiled call against
+    Kinematics.jacobian/pose and pose_error, with the original frame turned and moved."""
+    from controller.vocabulary import RightLeft
+    from tests.support import kinematics
+
+    kin = kinematics("smartpal5")
+    rng = np.random.default_rng(5)
+    for trial in range(12):
+        q = kin.home() + rng.normal(scale=0.3, size=kin.nv)
+        kin.update(q)
+        if trial % 2:  # an original frame that is not the world
+            kin.set_original_frame(pin.SE3.Random(), float(rng.normal()))
+        side = RightLeft.RIGHT if trial % 3 else RightLeft.LEFT
+        task = tasks.ControlPointTask(side, pin.SE3.Random(), gain=7.5)
+        task.set_target(pin.SE3.Random(), rng.normal(size=6))
+        out = []
+        for compiled in (True, False):
+            monkeypatch.setattr(tasks, "_COMPILED", compiled)
+            stack = np.full((8, kin.nv), np.nan, order="F")
+            rate = np.full(6, np.nan)
+            task.compute_into(kin, stack[1:7], rate)
+            out.append((stack[1:7].copy(), rate))
+        np.testing.assert_allclose(out[0][0], out[1][0], rtol=1e-12, atol=1e-13)
+        np.testing.assert_allclose(out[0][1], out[1][1], rtol=1e-9, atol=1e-9)
+        rate = np.empty(6)
+        monkeypatch.setattr(tasks, "_COMPILED", True)
+        task.compute_into(kin, None, rate)  # no rows to write: the rate alone
+        np.testing.assert_array_equal(rate, out[0][1])

@@ -201,6 +201,11 @@ class Kinematics:
     def _set_original(self, pose: pin.SE3) -> None:
         self._vehicle_cache = None  # the vehicle pose is read in the original frame
         self._original = pose
+        #: The original frame's rotation and translation [m] as arrays (for compiled code).
+        self.original_arrays = (
+            np.array(pose.rotation, dtype=float, order="C"),
+            np.array(pose.translation, dtype=float),
+        )
         rot6 = np.zeros((6, 6))
         rot6[:3, :3] = rot6[3:, 3:] = pose.rotation.T
         #: Rotation of world-aligned Jacobians into the original frame's axes (None: identity).
@@ -244,6 +249,14 @@ class Kinematics:
             to_original = self._to_original
             return jac if to_original is None else to_original.dot(jac)
         return self._frame_jacobian(self._cp_frame[side], frame)
+
+    def control_point_world(self, side: RightLeft) -> tuple[np.ndarray, pin.SE3]:
+        """The control point's ``6 x nv`` Jacobian in world axes (linear, angular) and its
+        placement in the world: what :meth:`pose` and :meth:`jacobian` rotate into the
+        original frame (:attr:`original_arrays`)."""
+        fid = self._cp_frame[side]
+        jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+        return jac, self._oMf[fid]
 
     def _frame_jacobian(self, fid: int, frame: FrameType) -> np.ndarray:
         jac: np.ndarray = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)

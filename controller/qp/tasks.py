@@ -89,6 +89,16 @@ class ControlPointTask(Task):
         return kin.jacobian(self.side), rate
 
     def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
+        if _COMPILED:
+            world, placement = kin.control_point_world(self.side)
+            r_o, p_o = kin.original_arrays
+            target = self.target
+            _control_point_rows(
+                world, placement.rotation, placement.translation, r_o, p_o, target.rotation,
+                target.translation, self.twist, float(self.gain), jac is not None,
+                _NO_ROWS if jac is None else jac, rate,
+            )  # fmt: skip
+            return
         if jac is not None:
             jac[...] = kin.jacobian(self.side)
         pose_error(self.target, kin.pose(self.side), rate)
@@ -155,6 +165,52 @@ def _pose_error(
         sign = 1.0 if col[0] * sx + col[1] * sy + col[2] * sz >= 0.0 else -1.0
         k = sign * theta / norm
         out[3], out[4], out[5] = k * col[0], k * col[1], k * col[2]
+
+
+@jit.jit
+def _control_point_rows(
+    world: np.ndarray,
+    rotation: np.ndarray,
+    translation: np.ndarray,
+    r_o: np.ndarray,
+    p_o: np.ndarray,
+    target_rot: np.ndarray,
+    target_pos: np.ndarray,
+    twist: np.ndarray,
+    gain: float,
+    write_jac: bool,
+    jac: np.ndarray,
+    rate: np.ndarray,
+) -> None:
+    """:meth:`ControlPointTask.compute_into` compiled: with ``R_o``, ``p_o`` the original
+    frame, the pose ``(R_oᵀ R, R_oᵀ (p − p_o))`` of the placement ``(R, p)``, ``rate`` :=
+    ``gain`` · :func:`pose_error` (target − pose) + ``twist``, and (``write_jac``) ``jac`` :=
+    the world Jacobian's linear and angular rows turned into the original frame's axes."""
+    pose_rot = np.empty((3, 3))
+    pose_pos = np.empty(3)
+    for a in range(3):
+        s = 0.0
+        for c in range(3):
+            s += r_o[c, a] * (translation[c] - p_o[c])
+        pose_pos[a] = s
+        for b in range(3):
+            s = 0.0
+            for c in range(3):
+                s += r_o[c, a] * rotation[c, b]
+            pose_rot[a, b] = s
+    _pose_error(target_rot, target_pos, pose_rot, pose_pos, rate)
+    for i in range(6):
+        rate[i] = gain * rate[i] + twist[i]
+    if write_jac:
+        for j in range(world.shape[1]):
+            for half in (0, 3):
+                x, y, z = world[half, j], world[half + 1, j], world[half + 2, j]
+                for a in range(3):
+                    jac[half + a, j] = r_o[0, a] * x + r_o[1, a] * y + r_o[2, a] * z
+
+
+#: No Jacobian rows to write (a dummy of the rows' layout).
+_NO_ROWS = np.zeros((8, 1), order="F")[1:7]
 
 
 class AxisTask(Task):
@@ -272,3 +328,8 @@ def _identity_rows(joints: np.ndarray, nv: int) -> tuple[np.ndarray, bool]:
 if _COMPILED:  # compile (or load) at import for Pinocchio's arrays: never in a control cycle
     _one = pin.SE3.Identity()
     _pose_error(_one.rotation, _one.translation, _one.rotation, _one.translation, np.empty(6))
+    _rows = np.zeros((8, 2), order="F")[1:7]  # a task's rows: a slice of the F-order stack
+    _control_point_rows(
+        pin.Data(pin.Model()).J, _one.rotation, _one.translation, np.eye(3), np.zeros(3),
+        _one.rotation, _one.translation, np.zeros(6), 1.0, True, _rows, np.zeros(6),
+    )  # fmt: skip
