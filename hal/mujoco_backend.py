@@ -71,6 +71,7 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
+from controller.model import jit
 from controller.model.robot import Robot
 from hal.interface import (
     HardwareFault,
@@ -194,6 +195,11 @@ class MujocoBackend(HardwareInterface):
         self._ones = np.ones(2 * n)
         self._scratch = np.zeros((2, n))
         self._fractions = tuple((j + 0.5) / substeps for j in range(substeps))
+        #: The set-points' interpolation compiled (:func:`_servo_references`): the fractions
+        #: as an array and each substep's references (rows: position, velocity).
+        self._compiled = jit.available()
+        self._fraction_array = np.array(self._fractions)
+        self._references = np.zeros((substeps, 2, n))
         #: Views of ``data.ctrl`` (rows: the exposed joints' ``_pos`` and ``_ff`` actuators),
         #: of the divergence warning counters and of qpos/qvel, set by :meth:`configure`.
         self._ctrl_pair = np.zeros((2, n))
@@ -381,7 +387,20 @@ class MujocoBackend(HardwareInterface):
         if velocity.shape not in ((n,), (0,)):
             raise ValueError(f"command.velocity has shape {velocity.shape}, expected ({n},)")
         end_time = data.time + self._dt
-        if self._state is HardwareState.ACTIVE:
+        if self._state is HardwareState.ACTIVE and self._compiled:
+            # Contiguous float64 in (no copy when it is already): the kernel is built for it.
+            position = np.ascontiguousarray(position)
+            velocity = np.ascontiguousarray(velocity)
+            references = self._references
+            if _servo_references(position, velocity, self._prev, self._fraction_array, references):
+                ctrl = self._ctrl_pair
+                for j in range(self._substeps):
+                    ctrl[...] = references[j]
+                    mujoco.mj_step(model, data)
+            else:
+                self._accept(position, velocity)  # a non-finite set-point: FAULT, servos off
+                mujoco.mj_step(model, data, self._substeps)
+        elif self._state is HardwareState.ACTIVE:
             np.subtract(position, self._q_prev, out=self._dq)
             if velocity.size:
                 np.subtract(velocity, self._v_prev, out=self._dv)
@@ -503,6 +522,38 @@ class MujocoBackend(HardwareInterface):
             data.qpos[model.joint(name).qposadr[0]] = value
         data.qvel[:] = 0.0
         mujoco.mj_forward(model, data)
+
+
+@jit.jit
+def _servo_references(
+    position: np.ndarray,
+    velocity: np.ndarray,
+    prev: np.ndarray,
+    fractions: np.ndarray,
+    references: np.ndarray,
+) -> bool:
+    """:meth:`MujocoBackend.write`'s interpolation compiled: False (nothing written) when a
+    set-point is not finite; else ``references[j]`` := ``prev + fractions[j]·(new − prev)``
+    per substep (rows: position, velocity; no ``velocity``: zero) and ``prev`` := the new
+    set-points."""
+    n = position.shape[0]
+    with_velocity = velocity.shape[0] > 0
+    for i in range(n):
+        if not math.isfinite(position[i]) or (with_velocity and not math.isfinite(velocity[i])):
+            return False
+    for i in range(n):
+        v = velocity[i] if with_velocity else 0.0
+        dq, dv = position[i] - prev[0, i], v - prev[1, i]
+        for j in range(fractions.shape[0]):
+            references[j, 0, i] = prev[0, i] + dq * fractions[j]
+            references[j, 1, i] = prev[1, i] + dv * fractions[j]
+        prev[0, i], prev[1, i] = position[i], v
+    return True
+
+
+if jit.available():  # compile (or load) at import: never in a control cycle
+    _servo_references(np.zeros(1), np.zeros(1), np.zeros((2, 1)), np.ones(1), np.zeros((1, 2, 1)))
+    _servo_references(np.zeros(1), np.zeros(0), np.zeros((2, 1)), np.ones(1), np.zeros((1, 2, 1)))
 
 
 def _prm(*values: float) -> list[float]:

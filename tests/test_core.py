@@ -331,9 +331,12 @@ def test_the_control_cycle_never_waits_for_a_compiler():
 
     if not jit.available():
         pytest.skip("numba not installed")
-    core = make_core("smartpal5")
+    from hal import mujoco_backend
+
+    core = make_core("smartpal5", "mujoco")
     assert core.collision is not None and core.collision.distances.compiled
     kernels = (
+        mujoco_backend._servo_references,
         collision_kernel.update,
         collision_kernel.jacobian_rows,
         damper_kernel.collision_rows,

@@ -199,6 +199,7 @@ def test_each_write_advances_simulated_time_by_dt_in_every_configured_state():
     np.testing.assert_allclose(np.diff(stamps), DT, atol=1e-12)
 
 
+@pytest.mark.usefixtures("jit_backend")
 def test_tracks_a_sine_on_every_arm_joint_with_velocity_feed_forward():
     rob = robot("smartpal5")
     hw = backend()
@@ -252,6 +253,7 @@ def test_deactivate_stops_tracking():
     assert np.abs(hw.data.ctrl).max() == 0.0
 
 
+@pytest.mark.usefixtures("jit_backend")
 @pytest.mark.parametrize("field", ["position", "velocity"])
 @pytest.mark.parametrize("bad", [math.nan, math.inf])
 def test_non_finite_set_point_faults_naming_the_joint(field: str, bad: float):
@@ -284,6 +286,7 @@ def test_non_finite_set_point_faults_naming_the_joint(field: str, bad: float):
     assert hold(hw, 50) < HOLD_TOL
 
 
+@pytest.mark.usefixtures("jit_backend")
 @pytest.mark.filterwarnings("ignore:overflow encountered")
 def test_finite_set_points_whose_changes_overflow_a_sum_are_not_called_non_finite(
     monkeypatch, tmp_path
@@ -310,6 +313,7 @@ def test_wrong_command_shape_raises():
     assert hw.state is HardwareState.ACTIVE
 
 
+@pytest.mark.usefixtures("jit_backend")
 def test_command_without_velocity_means_zero_feed_forward():
     hw = backend("pa10")
     hw.activate()
@@ -368,3 +372,25 @@ def test_the_collision_pass_is_off_only_when_no_geom_can_collide(monkeypatch):
 
     monkeypatch.setattr(MujocoBackend, "_build_spec", with_a_colliding_geom)
     assert not backend().model.opt.disableflags & contact
+
+
+def test_the_compiled_interpolation_gives_the_same_simulation_bit_for_bit():
+    """write()'s set-point interpolation compiled and in NumPy: the same servo references to
+    the last bit (with and without velocity, two substeps per cycle)."""
+    runs = []
+    for compiled in (True, False):
+        hw = backend(dt=DT)  # 2 substeps at 2 ms
+        hw._compiled = compiled
+        hw.activate()
+        q0 = hw.read().position.copy()
+        out = []
+        for k in range(40):
+            t = k * DT
+            v = np.full(len(q0), 0.4 * math.cos(2 * t))
+            command = JointCommand(q0 + 0.2 * math.sin(2 * t), v if k % 3 else np.zeros(0))
+            hw.write(command)
+            out.append(np.concatenate([hw.read().position, hw.data.ctrl]))
+        runs.append(out)
+    assert hw.substeps == 2
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
