@@ -53,3 +53,33 @@ def test_infeasible_problem_returns_none_and_the_next_solve_recovers(name: str):
 def test_unknown_solver_name_is_refused():
     with pytest.raises(ValueError, match="unknown QP solver"):
         make_solver("gurobi", 3, 1)
+
+
+@pytest.mark.parametrize("p", [0, 2])
+def test_daqp_packs_its_bounds_and_rows_the_same_compiled_and_in_numpy(p: int):
+    """The IK's DAQP solvers (no guard) pack bounds, rows and equalities in one compiled
+    call: the same stacked arrays, the same minimiser, over warm-started solves."""
+    from controller.model import jit
+    from controller.qp.solver import DaqpSolver
+
+    if not jit.available():
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(2)
+    compiled, plain = DaqpSolver(12, 4, p, guard=False), DaqpSolver(12, 4, p, guard=False)
+    assert compiled._compiled
+    plain._compiled = False
+    H, g, C, lo, hi, lb, ub = random_qp(rng)
+    A = rng.normal(size=(p, 12))
+    for _ in range(20):
+        g = g + 0.05 * rng.normal(size=g.size)
+        b = A @ rng.uniform(-0.1, 0.1, 12)
+        eq = (A, b) if p else (None, None)
+        x1, x0 = (
+            compiled.solve(H, g, C, lo, hi, lb, ub, *eq),
+            plain.solve(H, g, C, lo, hi, lb, ub, *eq),
+        )
+        assert x1 is not None and x0 is not None
+        np.testing.assert_array_equal(compiled._bu, plain._bu)
+        np.testing.assert_array_equal(compiled._bl, plain._bl)
+        np.testing.assert_array_equal(compiled._rows, plain._rows)
+        np.testing.assert_array_equal(x1, x0)

@@ -25,6 +25,8 @@ import numpy as np
 import qpsolvers
 from proxsuite import proxqp
 
+from controller.model import jit
+
 #: Bounds beyond this magnitude are treated as absent (proxsuite takes finite numbers best).
 INF = 1e20
 #: The back end :func:`make_solver` and the IK use unless told otherwise.
@@ -128,6 +130,9 @@ class DaqpSolver(QPSolver):
         self._sense[n + m :] = _DAQP_EQUALITY
         self._A = self._rows if m + p else None  # for updates: DAQP takes no empty A there
         self._model: daqp.Model | None = None  # None: set up afresh (cold) at the next solve
+        #: The IK's solvers (no guard) pack their bounds and rows in one compiled call.
+        self._compiled = not guard and jit.available()
+        self._no_eq = (np.zeros((0, n)), np.zeros(0))
 
     def reset(self) -> None:
         self._model = None
@@ -148,7 +153,11 @@ class DaqpSolver(QPSolver):
             return None
         n, m = self.n, self.m
         rows = self._rows
-        if m + self.p:
+        if m + self.p and self._compiled:
+            bu, bl = self._bu, self._bl
+            eq_rows, eq_rhs = self._no_eq if A is None or b is None else (A, b)
+            _pack(lb, ub, C, lo, hi, eq_rows, eq_rhs, bu, bl, rows)
+        elif m + self.p:
             bu, bl = self._bu, self._bl
             bu[:n] = ub
             bl[:n] = lb
@@ -178,6 +187,37 @@ class DaqpSolver(QPSolver):
         if flag == _DAQP_ITER_LIMIT and within_limits(x, C, lo, hi, lb, ub, A, b):
             return x
         return None
+
+
+@jit.jit
+def _pack(
+    lb: np.ndarray,
+    ub: np.ndarray,
+    C: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    bu: np.ndarray,
+    bl: np.ndarray,
+    rows: np.ndarray,
+) -> None:
+    """DAQP's stacked bounds ``[box; rows; equalities]`` and rows ``[C; A]`` in one call
+    (:class:`DaqpSolver` with the IK's arrays; seven NumPy copies otherwise)."""
+    n, m, p = lb.shape[0], C.shape[0], A.shape[0]
+    for i in range(n):
+        bu[i] = ub[i]
+        bl[i] = lb[i]
+    for k in range(m):
+        bu[n + k] = hi[k]
+        bl[n + k] = lo[k]
+        for j in range(n):
+            rows[k, j] = C[k, j]
+    for k in range(p):
+        bu[n + m + k] = b[k]
+        bl[n + m + k] = b[k]
+        for j in range(n):
+            rows[m + k, j] = A[k, j]
 
 
 class ProxQPSolver(QPSolver):
@@ -291,3 +331,10 @@ def make_solver(name: str, n: int, m: int, p: int = 0, guard: bool = True) -> QP
         backend = name.partition(":")[2] or None
         return QpsolversSolver(n, m, p, backend)
     raise ValueError(f"unknown QP solver {name!r}: use 'daqp', 'proxqp' or 'qpsolvers[:backend]'")
+
+
+if jit.available():  # compile (or load) at import, for the IK's arrays: never in a cycle
+    _pack(
+        np.zeros(2), np.zeros(2), np.zeros((1, 2)), np.zeros(1), np.zeros(1), np.zeros((1, 2)),
+        np.zeros(1), np.zeros(4), np.zeros(4), np.zeros((2, 2)),
+    )  # fmt: skip

@@ -244,11 +244,21 @@ class AxisTask(Task):
         return math.remainder(err, math.tau) if self.axis.is_elbow else err
 
     def compute(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        if self.axis.is_elbow:  # the angle loses meaning as the arm stretches: fade out
-            fade = min(1.0, kin.elbow_offset(self.axis.side) / ELBOW_FADE)
+        jac, rate = np.zeros((1, kin.nv)), np.zeros(1)
+        self.compute_into(kin, jac, rate)
+        return jac, rate
+
+    def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
+        """The one row, written in place (every cycle: no temporaries)."""
+        axis = self.axis
+        if axis.is_elbow:  # the angle loses meaning as the arm stretches: fade out
+            fade = min(1.0, kin.elbow_offset(axis.side) / ELBOW_FADE)
             self.weight[0] = self.base_weight * fade * fade
-        row = axis_jacobian(kin, self.axis)
-        return row[None, :], np.array([self.rate + self.gain * self.error(kin)])
+        if len(rate) != 1:
+            raise ValueError(f"AxisTask has 1 row, not {len(rate)}")
+        if jac is not None:
+            jac[0] = axis_jacobian(kin, axis)
+        rate[0] = self.rate + self.gain * self.error(kin)
 
 
 class PostureTask(Task):
