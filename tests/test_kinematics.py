@@ -117,6 +117,31 @@ def test_vehicle_jacobian_matches_finite_differences(robot_id: str):
         assert np.abs(kin.vehicle_jacobian() - num).max() <= FD_TOL
 
 
+def test_vehicle_pose_and_rows_are_the_same_compiled_and_through_pinocchio(robot_id: str):
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("numba not installed")
+    compiled, plain = kinematics(robot_id), kinematics(robot_id)
+    if not compiled.has_vehicle:
+        pytest.skip(f"{robot_id} has no vehicle")
+    plain._compiled_vehicle = False
+    rng = np.random.default_rng(4)
+    for trial in range(SAMPLES):
+        q = random_configuration(compiled, rng)
+        if trial % 2:  # an original frame that is not the world
+            origin, theta = pin.SE3.Random(), float(rng.normal())
+            for kin in (compiled, plain):
+                kin.set_original_frame(origin, theta)
+        for kin in (compiled, plain):
+            kin.update(q)
+        np.testing.assert_allclose(compiled.vehicle_pose(), plain.vehicle_pose(), atol=1e-12)
+        np.testing.assert_allclose(
+            compiled.vehicle_jacobian(), plain.vehicle_jacobian(), atol=1e-12
+        )
+        assert not compiled.vehicle_jacobian().flags.writeable
+
+
 def null_space_direction(kin: Kinematics, side: RightLeft, previous: np.ndarray | None):
     """Unit self-motion direction of an arm (full-length vector), sign kept continuous."""
     arm = kin.unit_indices(UnitType[f"{side.name}_ARM"])

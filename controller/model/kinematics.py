@@ -110,6 +110,8 @@ class Kinematics:
         self._elbow_sides = list(self._elbow_frames)
         self._elbow_values = np.zeros((len(self._elbow_sides), 2))
         self._elbows_done = False
+        #: The vehicle pose and rows from one compiled call (:func:`_vehicle_rows`).
+        self._compiled_vehicle = jit.available()
         if jit.available() and self._elbow_sides:
             try:
                 chain = JointChain(model)
@@ -425,7 +427,18 @@ class Kinematics:
 
     def _vehicle(self) -> tuple[np.ndarray, np.ndarray]:
         cached = self._vehicle_cache
-        if cached is None:
+        if cached is None and self._compiled_vehicle:
+            fid = self._body_frame
+            world = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+            placement = self._oMf[fid]
+            theta = self._vehicle_theta_joint() - self._original_theta
+            pose, rows = np.empty(3), np.empty((3, self.nv))
+            r_o, p_o = self.original_arrays
+            _vehicle_rows(world, placement.translation, r_o, p_o, theta, pose, rows)
+            pose.flags.writeable = False
+            rows.flags.writeable = False
+            cached = self._vehicle_cache = (pose, rows)
+        elif cached is None:
             rel = self._original.actInv(self.body_pose())
             theta = self._vehicle_theta_joint() - self._original_theta
             pose = np.array([rel.translation[0], rel.translation[1], theta])
@@ -435,3 +448,38 @@ class Kinematics:
             rows.flags.writeable = False
             cached = self._vehicle_cache = (pose, rows)
         return cached
+
+
+@jit.jit
+def _vehicle_rows(
+    world: np.ndarray,
+    translation: np.ndarray,
+    r_o: np.ndarray,
+    p_o: np.ndarray,
+    theta: float,
+    pose: np.ndarray,
+    rows: np.ndarray,
+) -> None:
+    """:meth:`Kinematics.vehicle_pose` and :meth:`Kinematics.vehicle_jacobian` compiled: the
+    body frame's x, y [m] in the original frame ``(r_o, p_o)`` and ``theta``, and the rows
+    of x, y (linear) and θ (angular z) of its world Jacobian ``world`` in the original
+    frame's axes."""
+    for a in range(2):
+        pose[a] = (
+            r_o[0, a] * (translation[0] - p_o[0])
+            + r_o[1, a] * (translation[1] - p_o[1])
+            + r_o[2, a] * (translation[2] - p_o[2])
+        )
+    pose[2] = theta
+    for j in range(world.shape[1]):
+        x, y, z = world[0, j], world[1, j], world[2, j]
+        rows[0, j] = r_o[0, 0] * x + r_o[1, 0] * y + r_o[2, 0] * z
+        rows[1, j] = r_o[0, 1] * x + r_o[1, 1] * y + r_o[2, 1] * z
+        rows[2, j] = r_o[0, 2] * world[3, j] + r_o[1, 2] * world[4, j] + r_o[2, 2] * world[5, j]
+
+
+if jit.available():  # compile (or load) at import, for Pinocchio's arrays: never in a cycle
+    _vehicle_rows(
+        pin.Data(pin.Model()).J, pin.SE3.Identity().translation, np.eye(3), np.zeros(3), 0.0,
+        np.zeros(3), np.zeros((3, 0)),
+    )  # fmt: skip
