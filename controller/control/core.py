@@ -110,7 +110,13 @@ class MotionCore:
         if missing:
             raise ValueError(f"hardware lacks joints {missing}")
         #: Hardware index of each kinematic joint, and of each gripper joint.
-        self._hw_index = np.array([names.index(n) for n in self.kin.joint_names], dtype=int)
+        index = np.array([names.index(n) for n in self.kin.joint_names], dtype=int)
+        #: Where the core's joints are in the hardware's arrays: a slice when they are a
+        #: consecutive run (the usual case: views and slice copies, cheaper every cycle).
+        consecutive = len(index) and np.array_equal(index, np.arange(index[0], index[-1] + 1))
+        self._hw_index: slice | np.ndarray = (
+            slice(int(index[0]), int(index[-1]) + 1) if consecutive else index
+        )
         self._grippers = {
             RightLeft[side]: np.array([names.index(n) for n in g.joints], dtype=int)
             for side, g in robot.profile.grippers.items()
@@ -344,7 +350,7 @@ class MotionCore:
             measured = self.hw.read()
             self.measured_hw = measured.position
             self.q = measured.position[self._hw_index].copy()
-            self.v_measured = measured.velocity[self._hw_index]
+            self.v_measured = measured.velocity[self._hw_index].copy()
             self.kin.update(self.q)
             faults = self.hw.faults()
             # A fault raises its alarm once: after clearAlarms a fault that persists does not
