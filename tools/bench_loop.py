@@ -341,6 +341,16 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     idle = threading.Event()  # set by the loop when the robot is idle with nothing ready
 
+    def plan_next() -> None:
+        core.planning_kinematics()  # refresh the copy the factories use
+        k = done["next"] % len(mix)
+        motion = mix[k][1](core)
+        done["next"] += 1
+        if motion is None:
+            done["skipped"] += 1
+        else:
+            ready.append((k, motion))
+
     def planner() -> None:
         # Woken by the loop (a thread polling every millisecond would take the loop's GIL).
         while not finished.is_set():
@@ -348,14 +358,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 continue
             idle.clear()
             if not ready and core.state == CoreState.READY and core.motion is None:
-                core.planning_kinematics()  # refresh the copy the factories use
-                k = done["next"] % len(mix)
-                motion = mix[k][1](core)
-                done["next"] += 1
-                if motion is None:
-                    done["skipped"] += 1
-                else:
-                    ready.append((k, motion))
+                plan_next()
+
+    # The first motion is ready before the first cycle: the mix starts moving at once,
+    # however long the first plan takes on a busy machine (a short run was all idle).
+    plan_next()
 
     capacity = int(args.rate * args.seconds) + 10
     breakdown = Breakdown(core, capacity, wrap=not args.no_breakdown)
