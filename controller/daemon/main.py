@@ -33,10 +33,8 @@ from controller.contract.config import (
 )
 from controller.control.blackbox import BlackBoxRing
 from controller.control.cycle_log import CycleLog
-from controller.control.process import Controller
 from controller.control.realtime import apply_realtime, restore
 from controller.daemon import systemd
-from controller.daemon.health import LoopHealth
 from controller.daemon.preflight import preflight
 from controller.logs import flush_logs, setup_logging
 from controller.model.robot import Robot, load_robot
@@ -108,6 +106,9 @@ class Daemon:
     ):
         """``robot`` and ``hal_options``: as :func:`~controller.daemon.preflight.preflight`
         gave them (loaded / taken from ``cfg`` when None)."""
+        # Here, not at the top: ``imotiond --check`` and ``--help`` never load the loop's
+        # solver, motion and kernel modules (~1.5 s of imports).
+        from controller.control.process import Controller
         from controller.gateway.process import BLACKBOX_NAME, JOINTS_NAME, SNAPSHOT_NAME
 
         self.cfg = cfg
@@ -225,6 +226,8 @@ def _readline(stream: Any, timeout: float) -> str:
 def _supervise(daemon: Daemon) -> None:
     """Watchdog pings while the loop advances; STATUS= on state changes; gateway health;
     the loop-health log line."""
+    from controller.daemon.health import LoopHealth
+
     period = systemd.watchdog_period()
     interval = min(0.5, period / 3) if period else 0.5
     interval = min(interval, daemon.cfg.loop.health_log_s)
