@@ -25,12 +25,14 @@ import time
 from pathlib import Path
 from typing import Any
 
+from controller.contract.blackbox import BLACKBOX_NAME
 from controller.contract.channel import CommandServer
 from controller.contract.config import (
     DaemonConfig,
     load_config,
     security_warnings,
 )
+from controller.contract.snapshot import JOINTS_NAME, SNAPSHOT_NAME
 from controller.control.blackbox import BlackBoxRing
 from controller.control.cycle_log import CycleLog
 from controller.control.realtime import apply_realtime, restore
@@ -109,7 +111,6 @@ class Daemon:
         # Here, not at the top: ``imotiond --check`` and ``--help`` never load the loop's
         # solver, motion and kernel modules (~1.5 s of imports).
         from controller.control.process import Controller
-        from controller.gateway.process import BLACKBOX_NAME, JOINTS_NAME, SNAPSHOT_NAME
 
         self.cfg = cfg
         self.robot = robot if robot is not None else load_robot(cfg.robot)
