@@ -9,14 +9,19 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from controller.client.recording import metadata_limits, read_mcap
 from controller.contract.blackbox import C_SEQ, RingReader
+from controller.control import overruns
 from controller.control.blackbox import BlackBoxRing
+from controller.gateway.observe import blackbox_writer
 from controller.gateway.process import start_observers
 from controller.model.alarms import AlarmCode
+from controller.vocabulary import CoreState
 from tests.daemon_support import TestDaemon
 
 
@@ -74,7 +79,42 @@ def test_rows_overwritten_during_a_copy_are_dropped(tmp_path: Path) -> None:
     ring.unlink()
 
 
-def test_an_alarm_writes_a_file_with_the_cycles_before_it(tmp_path: Path) -> None:
+def test_an_alarm_raised_while_a_file_is_written_gets_a_file_too(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Only the alarms already in the ring's copy share its file: one raised during the
+    (slow) write of the file used to be counted as seen, and got no file at all."""
+    ring = BlackBoxRing(tmp_path / "bb", 2, rate_hz=100.0, seconds=0.1)
+    _fill(ring, 5)
+    calls: list[int] = []
+
+    def slow_write(path: Path, cycles, *args) -> None:  # type: ignore[no-untyped-def]
+        calls.append(len(cycles))
+        if len(calls) == 1:  # a second alarm while the first file is written
+            q = np.zeros(ring.n)
+            ring.record(1, 0, 2, 3, (0.0, 0.0), q, q)
+
+    monkeypatch.setattr(blackbox_writer, "write_blackbox", slow_write)
+    view = SimpleNamespace(snapshot=lambda: SimpleNamespace(alarms=[]), robot=None, hw_joints=[])
+    writer = blackbox_writer.BlackBoxWriter(tmp_path / "bb", tmp_path / "out", 0.0, view)  # type: ignore[arg-type]
+    try:
+        q = np.zeros(ring.n)
+        ring.record(1, 0, 1, 3, (0.0, 0.0), q, q)  # the first alarm
+        deadline = time.monotonic() + 30.0
+        while len(writer.written) < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+    finally:
+        writer.close()
+        ring.unlink()
+    assert len(writer.written) == 2, calls
+
+
+def test_an_alarm_writes_a_file_with_the_cycles_before_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The file must be the injected alarm's: a loaded machine makes this 250 Hz loop overrun
+    # for seconds, and the LOOP_OVERRUN (0x411) warning it then raises got a file first.
+    monkeypatch.setattr(overruns, "OVERRUN_WINDOWS", 1 << 30)
     td = TestDaemon(**{"blackbox.dir": str(tmp_path / "bb"), "blackbox.seconds": 2.0,
                        "blackbox.after_s": 0.2})  # fmt: skip
     observers = start_observers(td.cfg, td.daemon.runtime, td.ctx)
@@ -82,7 +122,11 @@ def test_an_alarm_writes_a_file_with_the_cycles_before_it(tmp_path: Path) -> Non
         td.reset()
         assert observers.blackbox is not None
         ring = observers.blackbox.ring
-        assert td.wait_for(lambda: ring.count > ring.capacity + 10)  # the ring went round
+        assert td.wait_for(lambda: td.controller.core.state == CoreState.READY)
+        ready_at = ring.count
+        # the ring went round in Ready (counting from the start would let a slow servo-on
+        # leave Servo-off rows in it)
+        assert td.wait_for(lambda: ring.count > ready_at + ring.capacity + 10)
         td.controller.core.raise_alarm(AlarmCode.OVERSPEED, "test", "injected by the test")
         assert td.wait_for(lambda: bool(observers.blackbox and observers.blackbox.written))
         path = observers.blackbox.written[0]

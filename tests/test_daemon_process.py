@@ -24,6 +24,8 @@ import grpc
 import pytest
 
 from controller.contract.config import load_config
+from controller.daemon import main as daemon_main
+from controller.daemon.main import Daemon
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 from controller.vocabulary import CoreState
@@ -287,6 +289,42 @@ def test_a_restarted_gateway_is_not_real_time():
     finally:
         d.kill()
     assert policies == {os.SCHED_OTHER}
+
+
+def test_the_early_gateway_is_the_one_configured_and_dies_with_a_failed_start(
+    monkeypatch: pytest.MonkeyPatch,
+):
+    """imotiond starts its gateway before it builds the controller (the gateway loads its
+    modules meanwhile): that process is the one that then serves; a start that fails
+    kills it."""
+    cfg = load_config(
+        None, {"robot": "pa10", "hal": "ideal", "listen": "127.0.0.1:0", "realtime.enabled": False}
+    )
+    d = Daemon(cfg, early_gateway=True)
+    try:
+        assert d.gateway is not None and d.gateway.poll() is None
+        early = d.gateway.pid
+        address = d.start_gateway_process()
+        assert d.gateway.pid == early and address.startswith("127.0.0.1:")
+    finally:
+        d.close()
+    spawned: list[subprocess.Popen[str]] = []
+    spawn = Daemon._spawn_gateway
+
+    def recorded(self: Daemon) -> subprocess.Popen[str]:
+        spawned.append(spawn(self))
+        return spawned[-1]
+
+    monkeypatch.setattr(Daemon, "_spawn_gateway", recorded)
+
+    def no_hardware(*_: object) -> None:
+        raise OSError("no such hardware")
+
+    monkeypatch.setattr(daemon_main, "make_hardware", no_hardware)
+    with pytest.raises(OSError, match="no such hardware"):
+        Daemon(cfg, early_gateway=True)
+    (gateway,) = spawned
+    assert gateway.returncode is not None  # killed and reaped
 
 
 # ----------------------------------------------------------------------------- refusals

@@ -14,6 +14,7 @@ import pytest
 from controller.control.core import CoreState
 from controller.control.events import LoopEvents
 from controller.daemon.health import LoopHealth
+from controller.gateway.grpc.base import LOG_REPEATED
 from controller.model.alarms import Alarm, AlarmCode, AlarmType
 from controller.rpc import imotion_pb2 as pb
 from tests.daemon_support import TestDaemon
@@ -208,3 +209,21 @@ def test_daemon_logs_commands_motions_states_and_alarms(
         "injected by the test",
     )
     assert events(caplog, "alarm cleared")[0]["code"] == "0x0411"
+
+
+def test_a_huge_request_is_logged_cut(daemon: TestDaemon, caplog: pytest.LogCaptureFixture):
+    """100 000 numbers in one field (refused): the command line names the field and its
+    length, with its first LOG_REPEATED numbers only (not a megabyte of text)."""
+    caplog.set_level(logging.INFO)
+    request = pb.MoveLinearCartesianRelRequest(
+        type=pb.RIGHT,
+        speed=pb.CartesianSpeed(translation=50, rotation=30),
+        accel=pb.CartesianAccel(translation=200, rotation=100),
+    )
+    request.rel_hg_mat.m.extend([0.5] * 100_000)
+    reply = daemon.spec_a.MoveLinearCartesianRel(request)
+    assert reply.return_id.id != 0
+    (bad,) = events(caplog, "command refused")
+    assert bad["args"].endswith("(cut: rel_hg_mat.m x100000)"), bad["args"][-200:]
+    assert bad["args"].count("m: 0.5") == LOG_REPEATED
+    assert "translation: 50" in bad["args"] and len(bad["args"]) < 1000

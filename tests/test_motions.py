@@ -8,7 +8,7 @@ import os
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from controller.control.core import CoreState, MotionCore
@@ -358,9 +358,27 @@ def test_abort_holds_within_one_cycle():
 
 # ------------------------------------------------------------------ property: joint limits
 _CORES: dict[str, MotionCore] = {}
-#: Random commands per robot: 300 in the suite (1200 in all, about a tenth of its time);
-#: IMOTION_PROPERTY_EXAMPLES=1000 (or more) for a thorough run.
-PROPERTY_EXAMPLES = int(os.environ.get("IMOTION_PROPERTY_EXAMPLES", "300"))
+#: Random commands per robot: 100 in the suite, after the corners below (each runs up to 250
+#: full cycles: 300 took a tenth of the suite's time); IMOTION_PROPERTY_EXAMPLES=1000 (or
+#: more) for a thorough run.
+PROPERTY_EXAMPLES = int(os.environ.get("IMOTION_PROPERTY_EXAMPLES", "100"))
+#: The corners of the input space, always run first: the longest reach and the largest
+#: rotation both ways, from the arm pushed towards either end of its range, with every
+#: redundant axis free or none, holding the other hand or not.
+_ALL = [True] * len(RedundantAxis)
+_NONE = [False] * len(RedundantAxis)
+_CORNERS = [
+    dict(dp=(0.5, 0.5, 0.5), rot=(1.2, 1.2, 1.2), mask=_ALL, hold=True, start_offset=0.6),
+    dict(dp=(-0.5, -0.5, -0.5), rot=(-1.2, -1.2, -1.2), mask=_ALL, hold=False, start_offset=-0.6),
+    dict(dp=(0.5, -0.5, 0.5), rot=(-1.2, 1.2, -1.2), mask=_NONE, hold=False, start_offset=0.6),
+    dict(dp=(-0.5, 0.5, -0.5), rot=(1.2, -1.2, 1.2), mask=_NONE, hold=True, start_offset=-0.6),
+]
+
+
+def _with_corners(test):  # type: ignore[no-untyped-def]
+    for corner in reversed(_CORNERS):
+        test = example(**corner)(test)
+    return test
 
 
 def _shared_core(robot_id: str) -> MotionCore:
@@ -370,6 +388,7 @@ def _shared_core(robot_id: str) -> MotionCore:
 
 
 @pytest.mark.parametrize("robot_id", ["smartpal5", "pa10", "rh", "seednoid"])
+@_with_corners
 @settings(
     max_examples=PROPERTY_EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
@@ -381,9 +400,9 @@ def _shared_core(robot_id: str) -> MotionCore:
     start_offset=st.floats(-0.6, 0.6),
 )
 def test_no_target_and_mask_ever_crosses_a_joint_limit(robot_id, dp, rot, mask, hold, start_offset):
-    """Per robot, PROPERTY_EXAMPLES random targets (reachable or not, no reachability
-    check), random masks and random arm postures: commanded positions never leave the joint
-    limits."""
+    """Per robot, the corners and PROPERTY_EXAMPLES random targets (reachable or not, no
+    reachability check), random masks and random arm postures: commanded positions never
+    leave the joint limits."""
     core = _shared_core(robot_id)
     kin, hw = core.kin, core.hw
     core.clear_alarms()

@@ -35,6 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
+#: The ring's file in the runtime directory.
+BLACKBOX_NAME = "blackbox"
+
 H_COUNT = 0  #: rows written so far (the next row's sequence number)
 H_ALARM_EVENTS = 1  #: times the active alarm list grew
 H_ALARM_COUNT = 2  #: H_COUNT when it last grew

@@ -30,6 +30,11 @@ import numpy as np
 from controller.vocabulary import CoreState
 from hal.interface import HardwareState
 
+#: Files of the runtime directory the control process writes for the gateway: the snapshot
+#: (this module) and the joint names in its order (JSON list).
+SNAPSHOT_NAME = "snapshot"
+JOINTS_NAME = "joints.json"
+
 # header indices
 H_SEQ = 0
 H_CYCLE = 1

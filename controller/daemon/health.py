@@ -7,10 +7,13 @@ percentiles): it costs the loop nothing.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 from controller.contract import snapshot as snap
-from controller.control.process import Controller
 from controller.logs import get_logger
+
+if TYPE_CHECKING:
+    from controller.control.process import Controller
 
 _events = get_logger("imotiond.events")
 

@@ -4,7 +4,8 @@ Two processes: this one runs the fixed-rate loop (real-time where allowed) and o
 hardware; a gateway child (``controller.gateway.process``) serves gRPC. They meet in a
 private runtime directory: the snapshot (shared memory) and the command socket.
 
-Start-up: configuration → hardware up → loop ready → gateway listening → ``READY=1``.
+Start-up: configuration → gateway child started (it loads its modules meanwhile) →
+hardware up → loop ready → gateway configured and listening → ``READY=1``.
 ``WATCHDOG=1`` is sent only while the loop advances. SIGTERM/SIGINT: decelerating stop,
 servo off, exit 0.
 """
@@ -25,18 +26,18 @@ import time
 from pathlib import Path
 from typing import Any
 
+from controller.contract.blackbox import BLACKBOX_NAME
 from controller.contract.channel import CommandServer
 from controller.contract.config import (
     DaemonConfig,
     load_config,
     security_warnings,
 )
+from controller.contract.snapshot import JOINTS_NAME, SNAPSHOT_NAME
 from controller.control.blackbox import BlackBoxRing
 from controller.control.cycle_log import CycleLog
-from controller.control.process import Controller
 from controller.control.realtime import apply_realtime, restore
 from controller.daemon import systemd
-from controller.daemon.health import LoopHealth
 from controller.daemon.preflight import preflight
 from controller.logs import flush_logs, setup_logging
 from controller.model.robot import Robot, load_robot
@@ -105,16 +106,40 @@ class Daemon:
         cfg: DaemonConfig,
         robot: Robot | None = None,
         hal_options: dict[str, Any] | None = None,
+        early_gateway: bool = False,
     ):
         """``robot`` and ``hal_options``: as :func:`~controller.daemon.preflight.preflight`
-        gave them (loaded / taken from ``cfg`` when None)."""
-        from controller.gateway.process import BLACKBOX_NAME, JOINTS_NAME, SNAPSHOT_NAME
-
+        gave them (loaded / taken from ``cfg`` when None). ``early_gateway``: start the
+        gateway process now, so that it loads its modules (gRPC, planning: ~3 s of CPU)
+        while this process builds the hardware layer and the controller; it waits for its
+        configuration, which :meth:`start_gateway_process` sends."""
         self.cfg = cfg
         self.robot = robot if robot is not None else load_robot(cfg.robot)
-        options = cfg.hal_options if hal_options is None else hal_options
         self.runtime = make_runtime_dir(cfg)
         self._own_runtime = cfg.runtime_dir is None
+        self.gateway: subprocess.Popen[str] | None = None
+        self._gateway_started = False  #: the gateway process got its configuration
+        if early_gateway:
+            self.gateway = self._spawn_gateway()
+        try:
+            self._build(hal_options)
+        except BaseException:
+            if self.gateway is not None:
+                self.gateway.kill()
+                self.gateway.wait()
+            raise
+        self._server: Any = None
+        self._observers: Any = None  #: live view and black-box writer (gateway thread only)
+        self.address: str | None = None
+        self.exit_code = 0
+
+    def _build(self, hal_options: dict[str, Any] | None) -> None:
+        # Here, not at the top: ``imotiond --check`` and ``--help`` never load the loop's
+        # solver, motion and kernel modules (~1.5 s of imports).
+        from controller.control.process import Controller
+
+        cfg = self.cfg
+        options = cfg.hal_options if hal_options is None else hal_options
         self.hw = make_hardware(cfg.hal, self.robot, cfg.period, options)
         self.controller = Controller(
             self.robot,
@@ -144,18 +169,18 @@ class Daemon:
         _write_private(self.runtime / JOINTS_NAME, json.dumps(list(self.hw.joint_names)))
         self.commands = CommandServer(self.controller, self.runtime)
         self.commands.start()
-        self.gateway: subprocess.Popen[str] | None = None
-        self._server: Any = None
-        self._observers: Any = None  #: live view and black-box writer (gateway thread only)
-        self.address: str | None = None
-        self.exit_code = 0
 
     # ------------------------------------------------------------------ gateway
-    def start_gateway_process(self) -> str:
+    def _spawn_gateway(self) -> subprocess.Popen[str]:
         cmd = [sys.executable, "-m", "controller.gateway.process", "--runtime", str(self.runtime)]
-        self.gateway = subprocess.Popen(
-            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
-        )
+        return subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+
+    def start_gateway_process(self) -> str:
+        """Configure the early gateway process, or start a new one (none yet, a restart);
+        its address once it listens."""
+        if self.gateway is None or self._gateway_started or self.gateway.poll() is not None:
+            self.gateway = self._spawn_gateway()
+        self._gateway_started = True
         assert self.gateway.stdin is not None and self.gateway.stdout is not None
         # The configuration holds the tokens: a pipe, never a file in the runtime directory.
         self.gateway.stdin.write(self.cfg.model_dump_json() + "\n")
@@ -225,6 +250,8 @@ def _readline(stream: Any, timeout: float) -> str:
 def _supervise(daemon: Daemon) -> None:
     """Watchdog pings while the loop advances; STATUS= on state changes; gateway health;
     the loop-health log line."""
+    from controller.daemon.health import LoopHealth
+
     period = systemd.watchdog_period()
     interval = min(0.5, period / 3) if period else 0.5
     interval = min(interval, daemon.cfg.loop.health_log_s)
@@ -347,7 +374,9 @@ def _main(args: argparse.Namespace) -> int:
         return 0
     systemd.notify("STATUS=starting: loading the robot and the hardware layer")
     try:
-        daemon = Daemon(cfg, checked.robot, checked.hal_options)
+        daemon = Daemon(
+            cfg, checked.robot, checked.hal_options, early_gateway=cfg.gateway == "process"
+        )
     except (ConfigError, ValueError, OSError, RuntimeError) as exc:  # RuntimeDirError too
         _log.error("cannot start: %s", exc)
         return 2

@@ -23,9 +23,10 @@ from typing import Any
 
 import grpc
 
+from controller.contract.blackbox import BLACKBOX_NAME
 from controller.contract.channel import CommandClient
 from controller.contract.config import DaemonConfig, parse_listen
-from controller.contract.snapshot import SnapshotReader
+from controller.contract.snapshot import JOINTS_NAME, SNAPSHOT_NAME, SnapshotReader
 from controller.gateway.grpc.auth import TokenInterceptor
 from controller.gateway.grpc.jara import add_jara_servicers
 from controller.gateway.grpc.malformed import MalformedRequestGuard
@@ -45,10 +46,6 @@ from controller.model.robot import load_robot
 from controller.rpc import imotion_pb2_grpc as pb_grpc
 
 _log = logging.getLogger("imotiond.gateway")
-
-JOINTS_NAME = "joints.json"
-SNAPSHOT_NAME = "snapshot"
-BLACKBOX_NAME = "blackbox"
 
 
 @dataclass

@@ -23,14 +23,17 @@ the joints can move (vehicle links included); the pairs are named ``(link, "obst
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
-import coal
 import numpy as np
-import pinocchio as pin
 from pydantic import Field, model_validator
 
 from controller.model.model_source import StrictModel, Vec3
+
+if TYPE_CHECKING:  # coal and Pinocchio load at first use: the configuration (imotiond
+    # --check, the CLI) validates obstacles without them (~0.5 s of imports)
+    import coal
+    import pinocchio as pin
 
 Positive = Annotated[float, Field(gt=0)]
 
@@ -74,10 +77,14 @@ class Obstacle(StrictModel):
 
     def placement(self) -> pin.SE3:
         """Pose of the obstacle's frame in the original frame."""
+        import pinocchio as pin
+
         return pin.SE3(pin.rpy.rpyToMatrix(*self.rpy), np.asarray(self.pos, dtype=float))
 
     def geometry(self) -> coal.CollisionGeometry:
         """The coal shape in the obstacle's own frame."""
+        import coal
+
         if self.type == "box":
             assert self.half_extents is not None
             return coal.Box(*(2.0 * np.asarray(self.half_extents, dtype=float)))
@@ -108,6 +115,8 @@ def startup_origin(model: pin.Model, body_frame: str) -> pin.SE3:
     """The original frame as set at start-up, in the world: the pose of the body frame
     (the profile's ``body_frame``) at the zero configuration. Obstacles are given in it
     (``CollisionDistances(..., origin=startup_origin(kin.model, robot.profile.body_frame))``)."""
+    import pinocchio as pin
+
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
     return data.oMf[model.getFrameId(body_frame, pin.BODY)].copy()

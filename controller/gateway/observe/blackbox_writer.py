@@ -110,22 +110,27 @@ class BlackBoxWriter:
         self.view = view
         #: Paths written so far.
         self.written: list[Path] = []
+        #: The ring's alarm events when it was last copied for a file (from here on, each
+        #: new one gets a file).
+        self._copied_events = self.ring.alarm_events
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="blackbox", daemon=True)
         self._thread.start()
 
     def _run(self) -> None:
-        seen = self.ring.alarm_events
+        seen = self._copied_events
         while not self._stop.wait(POLL_PERIOD):
             events = self.ring.alarm_events
             if events == seen:
                 continue
-            seen = events
+            self._copied_events = events
             try:
                 self.write_now(self.ring.alarm_count - 1)
             except Exception as exc:  # never end the thread: the next alarm gets its file
                 _log.error("black box: cannot write the file: %s", exc)
-            seen = self.ring.alarm_events  # alarms within the same window share the file
+            # Alarms within the same window (in the ring's copy) share the file; one raised
+            # later, while the file was written, gets its own.
+            seen = self._copied_events
 
     def write_now(self, alarm_seq: int) -> Path:
         """Wait for ``after_s`` of cycles after row ``alarm_seq``, then write the file."""
@@ -134,6 +139,7 @@ class BlackBoxWriter:
         while self.ring.count <= alarm_seq + after and time.monotonic() < deadline:
             if self._stop.wait(min(0.05, max(self.after_s, 0.001))):
                 break
+        self._copied_events = self.ring.alarm_events  # (read first: a later one is not in)
         cycles = self.ring.copy()
         alarms = self.view.snapshot().alarms
         self.directory.mkdir(parents=True, exist_ok=True)
