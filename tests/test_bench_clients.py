@@ -66,3 +66,22 @@ def test_paced_clients_at_the_floor_report_latency_cpu_and_nice():
     assert 0 < out["getstate_p99_from_send_ms"] and out["client_late_p99_ms"] >= 0
     assert out["gateway_cpu_us_per_call"] == out["gateway_net_cpu_us_per_call"]
     assert out["gateway_nice"] == min(19, mine + 1)  # the value asked for, applied
+    assert out["control_cpu_ms_per_s"] == 0.0  # no control process beside this floor
+
+
+def test_the_control_process_cpu_is_read_beside_the_floor():
+    """Each client phase gives the control process's CPU (the loop's share of the cores,
+    higher while a move runs): read from /proc for the daemon's pid (here: this process)."""
+
+    class ThisProcess(NoLoop):
+        def control_pid(self) -> int:
+            return os.getpid()
+
+    floor = bench_clients.Floor(ThisProcess(), 0.0005, None)  # type: ignore[arg-type]
+    try:
+        args = argparse.Namespace(clients=2, procs=1, seconds=0.5)
+        out = bench_clients.run_clients(floor, args, 20.0, idle_cpu=0.0)
+    finally:
+        floor.stop()
+    assert out["control_cpu_ms_per_s"] >= 0.0
+    assert floor.control_pid() == os.getpid()

@@ -45,7 +45,10 @@ share of the tail). The paced phase also gives the round trip from the client's 
 (``getstate_p99_from_send_ms``) and how late the clients sent (``client_late_p99_ms``: they
 share the cores and wait for a CPU too); each client phase the gateway's CPU per call net of
 what it uses without clients (``gateway_net_cpu_us_per_call``; the mover's calls and
-planning: ``gateway_idle_cpu_ms_per_s``) and its nice value. ``--floor`` then points the
+planning: ``gateway_idle_cpu_ms_per_s``) and its nice value, and the control process's CPU
+(``control_cpu_ms_per_s``; without clients ``control_idle_cpu_ms_per_s``): the loop, real-time
+when permitted, takes that share of the cores first, and a running move costs it about
+twice a still robot's. ``--floor`` then points the
 same paced clients at a constant-reply grpcio server shaped like the gateway
 (tools/grpc_floor.py, at the gateway's nice value) beside the running daemon: grpcio's own
 cost and latency in the same minute (``<mode>.floor``). For
@@ -264,6 +267,10 @@ class Daemon:
                 return int(children[0])
         return None
 
+    def control_pid(self) -> int:
+        """imotiond, the control process (the loop; the gateway too when gateway=thread)."""
+        return self.proc.pid
+
     def cycles(self) -> int:
         """The loop's cycle counter now (one StreamState sample)."""
         stream = self.monitor.StreamState(pb.StreamStateRequest(rate_hz=1000.0), timeout=30.0)
@@ -361,6 +368,9 @@ class Floor:
     def gateway_pid(self) -> int:
         return self.proc.pid
 
+    def control_pid(self) -> int | None:
+        return control_pid(self.daemon)
+
     def cycles(self) -> int:
         return self.daemon.cycles()
 
@@ -387,6 +397,12 @@ def phase_stats(wake: np.ndarray, compute: np.ndarray, period_us: float) -> dict
         "compute_max_us": round(float(compute.max()), 1),
         "over_period": int(np.count_nonzero(wake + compute > period_us)),
     }
+
+
+def control_pid(daemon: Any) -> int | None:
+    """The control process's pid (None when there is none, e.g. a stand-in)."""
+    get = getattr(daemon, "control_pid", None)
+    return get() if get is not None else None
 
 
 def cpu_seconds(pid: int | None) -> float:
@@ -472,11 +488,13 @@ def run_clients(
         proc.stdin.flush()
     time.sleep(max(0.0, start_at - time.monotonic()))
     gateway_cpu = cpu_seconds(daemon.gateway_pid())
+    control_cpu = cpu_seconds(control_pid(daemon))
     waited = runqueue_seconds(daemon.gateway_pid())
     c2 = daemon.cycles()
     time.sleep(max(0.0, start_at + args.seconds - time.monotonic()))
     c3 = daemon.cycles()
     gateway_cpu = cpu_seconds(daemon.gateway_pid()) - gateway_cpu
+    control_cpu = cpu_seconds(control_pid(daemon)) - control_cpu
     waited = runqueue_seconds(daemon.gateway_pid()) - waited
     calls = errors = 0
     client_cpu = 0.0
@@ -514,6 +532,10 @@ def run_clients(
         out["gateway_net_cpu_us_per_call"] = round(net / calls * 1e6, 1)
         out["client_cpu_us_per_call"] = round(client_cpu / calls * 1e6, 1)
     out["gateway_runqueue_ms_per_s"] = round(waited / args.seconds * 1e3, 1)
+    # The control process's CPU (the loop, at a real-time priority when permitted): what
+    # the cores had left for the gateway and the clients; a running move costs the loop
+    # more per cycle than a still robot.
+    out["control_cpu_ms_per_s"] = round(control_cpu / args.seconds * 1e3, 1)
     out["load"] = round(os.getloadavg()[0], 2)
     out["gateway_nice"] = nice_of(daemon.gateway_pid())
     out["cycles"] = (c2, c3)
@@ -545,12 +567,16 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         time.sleep(args.warmup)
         c0 = daemon.cycles()
         idle_cpu = cpu_seconds(daemon.gateway_pid())
+        control_cpu = cpu_seconds(daemon.control_pid())
         t_idle = time.monotonic()
         time.sleep(args.seconds)
-        idle_cpu = (cpu_seconds(daemon.gateway_pid()) - idle_cpu) / (time.monotonic() - t_idle)
+        elapsed = time.monotonic() - t_idle
+        idle_cpu = (cpu_seconds(daemon.gateway_pid()) - idle_cpu) / elapsed
+        control_cpu = (cpu_seconds(daemon.control_pid()) - control_cpu) / elapsed
         c1 = daemon.cycles()
         # What the gateway does without clients (the mover's calls and planning included).
         result["gateway_idle_cpu_ms_per_s"] = round(idle_cpu * 1e3, 1)
+        result["control_idle_cpu_ms_per_s"] = round(control_cpu * 1e3, 1)
         loaded = run_clients(daemon, args, 0.0, mover, idle_cpu)
         c2, c3 = loaded.pop("cycles")
         result["clients"] = loaded.pop("clients")
@@ -646,7 +672,9 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
                     f"{'':8s}   gateway CPU per call net of its {idle:.0f} ms/s without "
                     "clients (the mover): "
                     f"{g.get('gateway_net_cpu_us_per_call', 0):.0f} us; gateway nice "
-                    f"{g.get('gateway_nice')}"
+                    f"{g.get('gateway_nice')}; the control process used "
+                    f"{g.get('control_cpu_ms_per_s', 0):.0f} ms/s of CPU (without clients "
+                    f"{r.get('control_idle_cpu_ms_per_s', 0):.0f})"
                 )
             if "getstate_p99_from_send_ms" in g:
                 sent, late = g["getstate_p99_from_send_ms"], g["client_late_p99_ms"]
