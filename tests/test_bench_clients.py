@@ -5,6 +5,7 @@ takes minutes: run it by hand, docs/daemon.md)."""
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -85,3 +86,15 @@ def test_the_control_process_cpu_is_read_beside_the_floor():
         floor.stop()
     assert out["control_cpu_ms_per_s"] >= 0.0
     assert floor.control_pid() == os.getpid()
+
+
+def test_the_burner_stands_in_for_a_moves_loop_cost_and_reports_its_cpu():
+    """--burn-us: a thread busy part of every period (what a running move adds to the loop),
+    so its effect on the reads can be seen without a move; it reports the CPU it used."""
+    cmd = [sys.executable, str(ROOT / "tools" / "bench_clients.py"), "--burn", "200"]
+    cmd += ["--rate", "1000", "--seconds", "0.3"]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout.strip().splitlines()[-1])
+    assert isinstance(data["fifo"], bool)
+    assert data["cpu_s"] > 0.0

@@ -4,7 +4,8 @@ does the gateway answer reads under it?
 
 Usage: python tools/bench_clients.py [--seconds 10] [--clients 32] [--procs 4] [--rate 1000]
                                      [--poll-hz 20] [--set KEY=VALUE ...] [--root DIR]
-                                     [--modes process,thread] [--floor]
+                                     [--modes process,thread] [--floor] [--no-mover]
+                                     [--burn-us US]
 
 For each gateway mode (``process``: gRPC in its own process, the shipped design; ``thread``:
 gRPC inside the control process, the peer) it starts ``imotiond --hal sim`` at ``--rate``
@@ -51,7 +52,10 @@ when permitted, takes that share of the cores first, and a running move costs it
 twice a still robot's. ``--floor`` then points the
 same paced clients at a constant-reply grpcio server shaped like the gateway
 (tools/grpc_floor.py, at the gateway's nice value) beside the running daemon: grpcio's own
-cost and latency in the same minute (``<mode>.floor``). For
+cost and latency in the same minute (``<mode>.floor``). ``--no-mover`` runs without the move;
+``--burn-us US`` adds a SCHED_FIFO thread (priority 1) busy US of every loop period, a
+stand-in for what a running move adds to the loop's CPU: with ``--no-mover`` it tells the
+move's cost to the cores from the gateway's own work during a move. For
 reference it first measures the machine's floor: a bare SCHED_FIFO thread that only sleeps
 to 1 ms deadlines (on shared virtual cores even that is late now and then).
 """
@@ -196,6 +200,40 @@ def bare_main(rate: float, seconds: float) -> int:
     }
     print(json.dumps(result), flush=True)
     return 0
+
+
+def burn_main(busy_us: float, rate: float, seconds: float) -> int:
+    """A stand-in for a running move's cost to the loop: a SCHED_FIFO thread (priority 1,
+    below the loop's) busy ``busy_us`` of every period for ``seconds`` (0: until killed).
+    Prints {"fifo", "cpu_s"} at the end."""
+    fifo = True
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+    except (OSError, AttributeError):
+        fifo = False
+    period = 1.0 / rate
+    end = time.monotonic() + seconds if seconds > 0 else float("inf")
+    cpu0 = time.process_time()
+    deadline = time.monotonic()
+    while deadline < end:
+        busy_end = time.monotonic() + busy_us * 1e-6
+        while time.monotonic() < busy_end:
+            pass
+        deadline += period
+        wait = deadline - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        else:  # fell behind (preempted): start again from now, no catching up
+            deadline = time.monotonic()
+    print(json.dumps({"fifo": fifo, "cpu_s": round(time.process_time() - cpu0, 3)}), flush=True)
+    return 0
+
+
+def start_burn(busy_us: float, rate: float) -> subprocess.Popen[str]:
+    """:func:`burn_main` in a process of its own, until stopped (SIGTERM)."""
+    cmd = [sys.executable, __file__, "--burn", f"{busy_us:g}", "--rate", f"{rate:g}"]
+    cmd += ["--seconds", "0"]
+    return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, text=True, cwd=ROOT)
 
 
 def run_bare(rate: float, seconds: float) -> dict[str, Any]:
@@ -555,12 +593,15 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         args.root.resolve(),
     )
     mover: Mover | None = None
-    result: dict[str, Any] = {"mode": mode}
+    burn: subprocess.Popen[str] | None = None
+    result: dict[str, Any] = {"mode": mode, "burn_us": args.burn_us}
     try:
         daemon.wait_ready()
         rid = daemon.a.ServoOn(pb.ServoOnRequest()).return_id
         if rid.id != 0:
             raise RuntimeError(f"servoOn refused: {rid.comment}")
+        if args.burn_us > 0:  # the loop's extra cost of a move, without the move
+            burn = start_burn(args.burn_us, args.rate)
         if not args.no_mover:
             mover = Mover(daemon.address)
             mover.start()
@@ -596,6 +637,9 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
                 del grpcio["cycles"], grpcio["clients"]
                 result["floor"] = grpcio
     finally:
+        if burn is not None:
+            burn.terminate()
+            burn.wait(10.0)
         if mover is not None:
             mover.stop()
             result["moves"] = mover.moves
@@ -627,7 +671,9 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
     period = 1e6 / args.rate
     print(
         f"\n{args.rate:g} Hz (period {period:.0f} us), {args.seconds:g} s per phase, "
-        f"{args.clients} clients in {args.procs} processes, a linear move always running"
+        f"{args.clients} clients in {args.procs} processes, "
+        + ("no move running" if args.no_mover else "a linear move always running")
+        + (f", a SCHED_FIFO thread busy {args.burn_us:g} us per period" if args.burn_us else "")
     )
     head = (
         f"{'gateway':8s} {'phase':7s} {'cycles':>7s} {'wake p50':>9s} {'p99':>7s} {'max':>8s} "
@@ -736,6 +782,15 @@ def main() -> int:
         "tail from the rest",
     )
     parser.add_argument(
+        "--burn-us",
+        type=float,
+        default=0.0,
+        help="a SCHED_FIFO thread (priority 1) busy this long of every loop period [us] "
+        "while the daemon runs: with --no-mover, what a running move's extra loop CPU does "
+        "to the reads without the move",
+    )
+    parser.add_argument("--burn", type=float, help=argparse.SUPPRESS)
+    parser.add_argument(
         "--floor",
         action="store_true",
         help="after the paced phase, the same clients at a constant-reply grpcio server "
@@ -750,6 +805,8 @@ def main() -> int:
     args = parser.parse_args()
     if args.client:
         return client_main(args.client, args.threads, args.seconds, args.hz)
+    if args.burn is not None:
+        return burn_main(args.burn, args.rate, args.seconds)
     if args.bare:
         return bare_main(args.rate, args.seconds)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
