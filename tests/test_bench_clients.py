@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import grpc
+import pytest
 
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
@@ -29,9 +30,11 @@ class NoLoop:
         return 0
 
 
-def test_the_floor_server_answers_constant_replies_and_stops_when_stdin_closes():
+@pytest.mark.parametrize("server", [[], ["--aio"]], ids=["sync", "aio"])
+def test_the_floor_server_answers_constant_replies_and_stops_when_stdin_closes(server):
+    """The synchronous server (as the gateway's) and, with --aio, a grpc.aio one."""
     proc = subprocess.Popen(
-        [sys.executable, str(ROOT / "tools" / "grpc_floor.py")],
+        [sys.executable, str(ROOT / "tools" / "grpc_floor.py"), *server],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
