@@ -5,12 +5,14 @@ takes minutes: run it by hand, docs/daemon.md)."""
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
 import grpc
+import pytest
 
 from controller.rpc import imotion_pb2 as pb
 from controller.rpc import imotion_pb2_grpc as pb_grpc
@@ -28,9 +30,11 @@ class NoLoop:
         return 0
 
 
-def test_the_floor_server_answers_constant_replies_and_stops_when_stdin_closes():
+@pytest.mark.parametrize("server", [[], ["--aio"]], ids=["sync", "aio"])
+def test_the_floor_server_answers_constant_replies_and_stops_when_stdin_closes(server):
+    """The synchronous server (as the gateway's) and, with --aio, a grpc.aio one."""
     proc = subprocess.Popen(
-        [sys.executable, str(ROOT / "tools" / "grpc_floor.py")],
+        [sys.executable, str(ROOT / "tools" / "grpc_floor.py"), *server],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -66,3 +70,34 @@ def test_paced_clients_at_the_floor_report_latency_cpu_and_nice():
     assert 0 < out["getstate_p99_from_send_ms"] and out["client_late_p99_ms"] >= 0
     assert out["gateway_cpu_us_per_call"] == out["gateway_net_cpu_us_per_call"]
     assert out["gateway_nice"] == min(19, mine + 1)  # the value asked for, applied
+    assert out["control_cpu_ms_per_s"] == 0.0  # no control process beside this floor
+
+
+def test_the_control_process_cpu_is_read_beside_the_floor():
+    """Each client phase gives the control process's CPU (the loop's share of the cores,
+    higher while a move runs): read from /proc for the daemon's pid (here: this process)."""
+
+    class ThisProcess(NoLoop):
+        def control_pid(self) -> int:
+            return os.getpid()
+
+    floor = bench_clients.Floor(ThisProcess(), 0.0005, None)  # type: ignore[arg-type]
+    try:
+        args = argparse.Namespace(clients=2, procs=1, seconds=0.5)
+        out = bench_clients.run_clients(floor, args, 20.0, idle_cpu=0.0)
+    finally:
+        floor.stop()
+    assert out["control_cpu_ms_per_s"] >= 0.0
+    assert floor.control_pid() == os.getpid()
+
+
+def test_the_burner_stands_in_for_a_moves_loop_cost_and_reports_its_cpu():
+    """--burn-us: a thread busy part of every period (what a running move adds to the loop),
+    so its effect on the reads can be seen without a move; it reports the CPU it used."""
+    cmd = [sys.executable, str(ROOT / "tools" / "bench_clients.py"), "--burn", "200"]
+    cmd += ["--rate", "1000", "--seconds", "0.3"]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout.strip().splitlines()[-1])
+    assert isinstance(data["fifo"], bool)
+    assert data["cpu_s"] > 0.0

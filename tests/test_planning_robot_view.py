@@ -3,6 +3,8 @@ same published state is answered without the kinematics (issue 17.12)."""
 
 from __future__ import annotations
 
+import threading
+import time
 from typing import Any
 
 import numpy as np
@@ -13,20 +15,35 @@ from tests.planning_support import FixedReader, robot, snapshot, view
 
 
 class _CountingView:
-    """Counts how often the view runs its kinematics."""
+    """Counts how often the view runs its kinematics (``Kinematics.update``)."""
 
     def __init__(self, name: str):
         rob = robot(name)
         self.reader = FixedReader(snapshot(rob))
         self.view = view(rob, self.reader)
         self.runs = 0
-        at = self.view.at
+        update = self.view.kin.update
 
         def counted(*args: Any, **kwargs: Any) -> Any:
             self.runs += 1
-            return at(*args, **kwargs)
+            return update(*args, **kwargs)
 
-        self.view.at = counted  # type: ignore[method-assign]
+        self.view.kin.update = counted  # type: ignore[method-assign]
+
+
+class _CountingLock:
+    """A lock that counts the attempts to take it (to see a caller waiting for it)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.attempts = 0
+
+    def __enter__(self) -> None:
+        self.attempts += 1
+        self._lock.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self._lock.release()
 
 
 @pytest.mark.parametrize("name", ["pa10", "smartpal5"])
@@ -92,3 +109,41 @@ def test_frames_are_given_to_the_kinematics_again_only_when_they_change():
         np.testing.assert_allclose(got.homogeneous, want.homogeneous, atol=1e-12, err_msg=str(k))
     # the first snapshot, the tool's and the way back: three times, not four
     assert sets.count("set_original_frame") == 3
+
+
+def test_readers_of_one_snapshot_arriving_together_run_the_kinematics_once():
+    """A second reader that arrives while the first computes the pose of the same snapshot
+    waits for that answer instead of computing it again (issue 17.12: at most one
+    kinematics run per snapshot, however many clients poll it)."""
+    c = _CountingView("pa10")
+    snap = c.reader.snap
+    lock = _CountingLock()
+    c.view._lock = lock  # type: ignore[assignment]
+    inside, release = threading.Event(), threading.Event()
+    counted = c.view.kin.update
+
+    def held(*args: Any, **kwargs: Any) -> Any:
+        inside.set()
+        assert release.wait(30.0)
+        return counted(*args, **kwargs)
+
+    c.view.kin.update = held  # type: ignore[method-assign]
+    answers: list[Any] = []
+
+    def read() -> None:
+        answers.append(c.view.pose(snap, RightLeft.RIGHT, FrameType.ORIGINAL_FRAME))
+
+    first = threading.Thread(target=read)
+    first.start()
+    assert inside.wait(30.0)  # the first reader computes, holding the view's lock
+    second = threading.Thread(target=read)
+    second.start()
+    deadline = time.monotonic() + 30.0
+    while lock.attempts < 2 and time.monotonic() < deadline:  # the second waits for it
+        time.sleep(0.001)
+    assert lock.attempts == 2
+    release.set()
+    first.join(30.0)
+    second.join(30.0)
+    assert c.runs == 1
+    np.testing.assert_array_equal(answers[0][0].homogeneous, answers[1][0].homogeneous)

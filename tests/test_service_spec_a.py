@@ -1241,3 +1241,34 @@ def test_two_clients_racing_for_one_robot(d: TestDaemon):
         t.join(30.0)
     assert sorted(replies) == [ReturnCode.STATUS_ERR, ReturnCode.OK]
     assert d.ctx.snapshot().started - d.ctx.snapshot().finished == 1
+
+
+def test_readers_of_one_snapshot_share_one_feedback_pose_answer_and_a_new_one_is_new():
+    """getFeedbackPosCartesian (issue 17.12): the answer for a snapshot is built once and
+    handed to every reader of that snapshot; a new joint value, control-point offset or
+    original frame gives a new answer (no stale pose). No gRPC: the servicer alone."""
+    from dataclasses import replace
+
+    from controller.gateway.grpc.spec_a import IntegratedMotionServicer
+    from tests.planning_support import context, robot, snapshot
+
+    ctx, reader, _ = context("pa10")
+    servicer = IntegratedMotionServicer(ctx)
+    request = pb.GetFeedbackPosCartesianRequest(type=RIGHT, frame_type=pb.ORIGINAL_FRAME)
+    first = servicer.GetFeedbackPosCartesian(request, None)
+    assert first.return_id.id == ReturnCode.OK
+    assert servicer.GetFeedbackPosCartesian(request, None) is first  # the same snapshot
+    other_frame = pb.GetFeedbackPosCartesianRequest(type=RIGHT, frame_type=pb.CURRENT_FRAME)
+    assert servicer.GetFeedbackPosCartesian(other_frame, None) is not first
+    rob = robot("pa10")
+    reader.snap = snapshot(rob, {rob.unit_joints("RIGHT_ARM")[0]: 0.3})  # the arm moved
+    moved = servicer.GetFeedbackPosCartesian(request, None)
+    assert list(moved.pos.car_pos.m) != list(first.pos.car_pos.m)
+    tool = replace(reader.snap, offsets=reader.snap.offsets.copy())
+    tool.offsets[0, 2, 3] += 0.1  # a tool 100 mm longer: same joints, another pose
+    reader.snap = tool
+    longer = servicer.GetFeedbackPosCartesian(request, None)
+    assert longer is not moved
+    assert list(longer.pos.car_pos.m) != list(moved.pos.car_pos.m)
+    bad = servicer.GetFeedbackPosCartesian(pb.GetFeedbackPosCartesianRequest(type=7), None)
+    assert bad.return_id.id == ReturnCode.VALUE_ERR  # checks first, never a kept answer

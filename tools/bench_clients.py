@@ -4,7 +4,8 @@ does the gateway answer reads under it?
 
 Usage: python tools/bench_clients.py [--seconds 10] [--clients 32] [--procs 4] [--rate 1000]
                                      [--poll-hz 20] [--set KEY=VALUE ...] [--root DIR]
-                                     [--modes process,thread] [--floor]
+                                     [--modes process,thread] [--floor] [--no-mover]
+                                     [--burn-us US]
 
 For each gateway mode (``process``: gRPC in its own process, the shipped design; ``thread``:
 gRPC inside the control process, the peer) it starts ``imotiond --hal sim`` at ``--rate``
@@ -45,10 +46,16 @@ share of the tail). The paced phase also gives the round trip from the client's 
 (``getstate_p99_from_send_ms``) and how late the clients sent (``client_late_p99_ms``: they
 share the cores and wait for a CPU too); each client phase the gateway's CPU per call net of
 what it uses without clients (``gateway_net_cpu_us_per_call``; the mover's calls and
-planning: ``gateway_idle_cpu_ms_per_s``) and its nice value. ``--floor`` then points the
+planning: ``gateway_idle_cpu_ms_per_s``) and its nice value, and the control process's CPU
+(``control_cpu_ms_per_s``; without clients ``control_idle_cpu_ms_per_s``): the loop, real-time
+when permitted, takes that share of the cores first, and a running move costs it about
+twice a still robot's. ``--floor`` then points the
 same paced clients at a constant-reply grpcio server shaped like the gateway
 (tools/grpc_floor.py, at the gateway's nice value) beside the running daemon: grpcio's own
-cost and latency in the same minute (``<mode>.floor``). For
+cost and latency in the same minute (``<mode>.floor``). ``--no-mover`` runs without the move;
+``--burn-us US`` adds a SCHED_FIFO thread (priority 1) busy US of every loop period, a
+stand-in for what a running move adds to the loop's CPU: with ``--no-mover`` it tells the
+move's cost to the cores from the gateway's own work during a move. For
 reference it first measures the machine's floor: a bare SCHED_FIFO thread that only sleeps
 to 1 ms deadlines (on shared virtual cores even that is late now and then).
 """
@@ -195,6 +202,40 @@ def bare_main(rate: float, seconds: float) -> int:
     return 0
 
 
+def burn_main(busy_us: float, rate: float, seconds: float) -> int:
+    """A stand-in for a running move's cost to the loop: a SCHED_FIFO thread (priority 1,
+    below the loop's) busy ``busy_us`` of every period for ``seconds`` (0: until killed).
+    Prints {"fifo", "cpu_s"} at the end."""
+    fifo = True
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+    except (OSError, AttributeError):
+        fifo = False
+    period = 1.0 / rate
+    end = time.monotonic() + seconds if seconds > 0 else float("inf")
+    cpu0 = time.process_time()
+    deadline = time.monotonic()
+    while deadline < end:
+        busy_end = time.monotonic() + busy_us * 1e-6
+        while time.monotonic() < busy_end:
+            pass
+        deadline += period
+        wait = deadline - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        else:  # fell behind (preempted): start again from now, no catching up
+            deadline = time.monotonic()
+    print(json.dumps({"fifo": fifo, "cpu_s": round(time.process_time() - cpu0, 3)}), flush=True)
+    return 0
+
+
+def start_burn(busy_us: float, rate: float) -> subprocess.Popen[str]:
+    """:func:`burn_main` in a process of its own, until stopped (SIGTERM)."""
+    cmd = [sys.executable, __file__, "--burn", f"{busy_us:g}", "--rate", f"{rate:g}"]
+    cmd += ["--seconds", "0"]
+    return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, text=True, cwd=ROOT)
+
+
 def run_bare(rate: float, seconds: float) -> dict[str, Any]:
     cmd = [sys.executable, __file__, "--bare", "--rate", f"{rate:g}", "--seconds", f"{seconds:g}"]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=seconds + 60, cwd=ROOT)
@@ -263,6 +304,10 @@ class Daemon:
             if children:
                 return int(children[0])
         return None
+
+    def control_pid(self) -> int:
+        """imotiond, the control process (the loop; the gateway too when gateway=thread)."""
+        return self.proc.pid
 
     def cycles(self) -> int:
         """The loop's cycle counter now (one StreamState sample)."""
@@ -361,6 +406,9 @@ class Floor:
     def gateway_pid(self) -> int:
         return self.proc.pid
 
+    def control_pid(self) -> int | None:
+        return control_pid(self.daemon)
+
     def cycles(self) -> int:
         return self.daemon.cycles()
 
@@ -387,6 +435,12 @@ def phase_stats(wake: np.ndarray, compute: np.ndarray, period_us: float) -> dict
         "compute_max_us": round(float(compute.max()), 1),
         "over_period": int(np.count_nonzero(wake + compute > period_us)),
     }
+
+
+def control_pid(daemon: Any) -> int | None:
+    """The control process's pid (None when there is none, e.g. a stand-in)."""
+    get = getattr(daemon, "control_pid", None)
+    return get() if get is not None else None
 
 
 def cpu_seconds(pid: int | None) -> float:
@@ -472,11 +526,13 @@ def run_clients(
         proc.stdin.flush()
     time.sleep(max(0.0, start_at - time.monotonic()))
     gateway_cpu = cpu_seconds(daemon.gateway_pid())
+    control_cpu = cpu_seconds(control_pid(daemon))
     waited = runqueue_seconds(daemon.gateway_pid())
     c2 = daemon.cycles()
     time.sleep(max(0.0, start_at + args.seconds - time.monotonic()))
     c3 = daemon.cycles()
     gateway_cpu = cpu_seconds(daemon.gateway_pid()) - gateway_cpu
+    control_cpu = cpu_seconds(control_pid(daemon)) - control_cpu
     waited = runqueue_seconds(daemon.gateway_pid()) - waited
     calls = errors = 0
     client_cpu = 0.0
@@ -514,6 +570,10 @@ def run_clients(
         out["gateway_net_cpu_us_per_call"] = round(net / calls * 1e6, 1)
         out["client_cpu_us_per_call"] = round(client_cpu / calls * 1e6, 1)
     out["gateway_runqueue_ms_per_s"] = round(waited / args.seconds * 1e3, 1)
+    # The control process's CPU (the loop, at a real-time priority when permitted): what
+    # the cores had left for the gateway and the clients; a running move costs the loop
+    # more per cycle than a still robot.
+    out["control_cpu_ms_per_s"] = round(control_cpu / args.seconds * 1e3, 1)
     out["load"] = round(os.getloadavg()[0], 2)
     out["gateway_nice"] = nice_of(daemon.gateway_pid())
     out["cycles"] = (c2, c3)
@@ -533,24 +593,31 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
         args.root.resolve(),
     )
     mover: Mover | None = None
-    result: dict[str, Any] = {"mode": mode}
+    burn: subprocess.Popen[str] | None = None
+    result: dict[str, Any] = {"mode": mode, "burn_us": args.burn_us}
     try:
         daemon.wait_ready()
         rid = daemon.a.ServoOn(pb.ServoOnRequest()).return_id
         if rid.id != 0:
             raise RuntimeError(f"servoOn refused: {rid.comment}")
+        if args.burn_us > 0:  # the loop's extra cost of a move, without the move
+            burn = start_burn(args.burn_us, args.rate)
         if not args.no_mover:
             mover = Mover(daemon.address)
             mover.start()
         time.sleep(args.warmup)
         c0 = daemon.cycles()
         idle_cpu = cpu_seconds(daemon.gateway_pid())
+        control_cpu = cpu_seconds(daemon.control_pid())
         t_idle = time.monotonic()
         time.sleep(args.seconds)
-        idle_cpu = (cpu_seconds(daemon.gateway_pid()) - idle_cpu) / (time.monotonic() - t_idle)
+        elapsed = time.monotonic() - t_idle
+        idle_cpu = (cpu_seconds(daemon.gateway_pid()) - idle_cpu) / elapsed
+        control_cpu = (cpu_seconds(daemon.control_pid()) - control_cpu) / elapsed
         c1 = daemon.cycles()
         # What the gateway does without clients (the mover's calls and planning included).
         result["gateway_idle_cpu_ms_per_s"] = round(idle_cpu * 1e3, 1)
+        result["control_idle_cpu_ms_per_s"] = round(control_cpu * 1e3, 1)
         loaded = run_clients(daemon, args, 0.0, mover, idle_cpu)
         c2, c3 = loaded.pop("cycles")
         result["clients"] = loaded.pop("clients")
@@ -570,6 +637,9 @@ def run_mode(mode: str, args: argparse.Namespace, work: Path) -> dict[str, Any]:
                 del grpcio["cycles"], grpcio["clients"]
                 result["floor"] = grpcio
     finally:
+        if burn is not None:
+            burn.terminate()
+            burn.wait(10.0)
         if mover is not None:
             mover.stop()
             result["moves"] = mover.moves
@@ -601,7 +671,9 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
     period = 1e6 / args.rate
     print(
         f"\n{args.rate:g} Hz (period {period:.0f} us), {args.seconds:g} s per phase, "
-        f"{args.clients} clients in {args.procs} processes, a linear move always running"
+        f"{args.clients} clients in {args.procs} processes, "
+        + ("no move running" if args.no_mover else "a linear move always running")
+        + (f", a SCHED_FIFO thread busy {args.burn_us:g} us per period" if args.burn_us else "")
     )
     head = (
         f"{'gateway':8s} {'phase':7s} {'cycles':>7s} {'wake p50':>9s} {'p99':>7s} {'max':>8s} "
@@ -646,7 +718,9 @@ def print_table(results: list[dict[str, Any]], args: argparse.Namespace) -> None
                     f"{'':8s}   gateway CPU per call net of its {idle:.0f} ms/s without "
                     "clients (the mover): "
                     f"{g.get('gateway_net_cpu_us_per_call', 0):.0f} us; gateway nice "
-                    f"{g.get('gateway_nice')}"
+                    f"{g.get('gateway_nice')}; the control process used "
+                    f"{g.get('control_cpu_ms_per_s', 0):.0f} ms/s of CPU (without clients "
+                    f"{r.get('control_idle_cpu_ms_per_s', 0):.0f})"
                 )
             if "getstate_p99_from_send_ms" in g:
                 sent, late = g["getstate_p99_from_send_ms"], g["client_late_p99_ms"]
@@ -708,6 +782,15 @@ def main() -> int:
         "tail from the rest",
     )
     parser.add_argument(
+        "--burn-us",
+        type=float,
+        default=0.0,
+        help="a SCHED_FIFO thread (priority 1) busy this long of every loop period [us] "
+        "while the daemon runs: with --no-mover, what a running move's extra loop CPU does "
+        "to the reads without the move",
+    )
+    parser.add_argument("--burn", type=float, help=argparse.SUPPRESS)
+    parser.add_argument(
         "--floor",
         action="store_true",
         help="after the paced phase, the same clients at a constant-reply grpcio server "
@@ -722,6 +805,8 @@ def main() -> int:
     args = parser.parse_args()
     if args.client:
         return client_main(args.client, args.threads, args.seconds, args.hz)
+    if args.burn is not None:
+        return burn_main(args.burn, args.rate, args.seconds)
     if args.bare:
         return bare_main(args.rate, args.seconds)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]

@@ -14,6 +14,7 @@ from controller.gateway.grpc.base import (
     side_arg,
     unit_arg,
 )
+from controller.gateway.planning.robot_view import pose_inputs
 from controller.gateway.services.context import Context
 from controller.gateway.services.spec_a import (
     AXIS_FIELDS,
@@ -32,6 +33,8 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
         self.view = ctx.view
         self.service = service or SpecAService(ctx)
         self._states = Replies(pb.GetStateResponse)  #: getState's answers
+        #: getFeedbackPosCartesian's answers, by request and snapshot (pose_inputs)
+        self._poses = Replies(pb.GetFeedbackPosCartesianResponse, limit=16)
 
     # ------------------------------------------------------------------ always OK
     @rpc(pb.AbortResponse)
@@ -92,9 +95,16 @@ class IntegratedMotionServicer(pb_grpc.IntegratedMotionServicer):
     # ------------------------------------------------------------------ feedback
     @rpc(pb.GetFeedbackPosCartesianResponse)
     def GetFeedbackPosCartesian(self, request):
-        hg_mm, elbow = self.service.feedback_cartesian(request.type, request.frame_type)
-        pos = pb.CarPosWithElbow(car_pos=pb.HgMatrix(m=hg_mm.ravel().tolist()), elbow=elbow)
-        return {"pos": pos}
+        snap = self.ctx.snapshot()
+        side, frame = request.type, request.frame_type
+
+        def fields() -> dict:
+            hg_mm, elbow = self.service.feedback_cartesian(side, frame, snap)
+            pos = pb.CarPosWithElbow(car_pos=pb.HgMatrix(m=hg_mm.ravel().tolist()), elbow=elbow)
+            return {"pos": pos}
+
+        # Readers of one snapshot share one answer; any new joint value or frame is a new key.
+        return self._poses.get((side, frame, *pose_inputs(snap)), fields)
 
     @rpc(pb.GetFeedbackPosJointResponse)
     def GetFeedbackPosJoint(self, request):

@@ -26,6 +26,12 @@ from controller.vocabulary import FrameType, RightLeft, UnitType
 POSE_CACHE = 16
 
 
+def pose_inputs(snap: Snapshot) -> tuple[bytes, bytes, bytes, float]:
+    """What a control-point pose of ``snap`` depends on: the measured joints, the
+    control-point offsets and the original frame (a key: equal inputs, equal poses)."""
+    return (snap.q.tobytes(), snap.offsets.tobytes(), snap.original.tobytes(), snap.original_theta)
+
+
 class RobotView:
     def __init__(self, robot: Robot, reader: SnapshotReader, hw_joints: list[str]):
         self.robot = robot
@@ -50,22 +56,26 @@ class RobotView:
     def at(self, snap: Snapshot, q: np.ndarray | None = None) -> Iterator[Kinematics]:
         """The kinematics at ``snap`` (or at configuration ``q`` with ``snap``'s frames)."""
         with self._lock:
-            kin = self.kin
-            # The frames change only on a command (setControlPointOffset, resetOriginalFrame):
-            # set again only when they did (~70 us saved per call). This is the only place
-            # that sets this Kinematics' frames.
-            frames = (snap.offsets.tobytes(), snap.original.tobytes(), snap.original_theta)
-            if frames != self._frames:
-                for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
-                    if side in kin.arms:
-                        off = np.vstack([snap.offsets[k], [0.0, 0.0, 0.0, 1.0]])
-                        kin.set_control_point_offset(side, pin.SE3(off))
-                # The controller publishes its frames before the gateway starts: always valid.
-                original = np.vstack([snap.original, [0.0, 0.0, 0.0, 1.0]])
-                kin.set_original_frame(pin.SE3(original), snap.original_theta)
-                self._frames = frames
-            kin.update(snap.q[self.hw_index] if q is None else q)
-            yield kin
+            yield self._set(snap, q)
+
+    def _set(self, snap: Snapshot, q: np.ndarray | None) -> Kinematics:
+        """``kin`` at ``snap`` (or ``q``); the caller holds ``_lock``."""
+        kin = self.kin
+        # The frames change only on a command (setControlPointOffset, resetOriginalFrame):
+        # set again only when they did (~70 us saved per call). This is the only place
+        # that sets this Kinematics' frames.
+        frames = (snap.offsets.tobytes(), snap.original.tobytes(), snap.original_theta)
+        if frames != self._frames:
+            for k, side in enumerate((RightLeft.RIGHT, RightLeft.LEFT)):
+                if side in kin.arms:
+                    off = np.vstack([snap.offsets[k], [0.0, 0.0, 0.0, 1.0]])
+                    kin.set_control_point_offset(side, pin.SE3(off))
+            # The controller publishes its frames before the gateway starts: always valid.
+            original = np.vstack([snap.original, [0.0, 0.0, 0.0, 1.0]])
+            kin.set_original_frame(pin.SE3(original), snap.original_theta)
+            self._frames = frames
+        kin.update(snap.q[self.hw_index] if q is None else q)
+        return kin
 
     def measured_q(self, snap: Snapshot) -> np.ndarray:
         """Kinematic configuration (SI) of a snapshot."""
@@ -113,24 +123,24 @@ class RobotView:
         for the last few of those are kept, so clients polling a robot that stands still (or
         several within one cycle) cost a look-up (~5 us), not the kinematics (~110 us).
         """
-        key = (
-            side,
-            frame,
-            snap.q.tobytes(),
-            snap.offsets.tobytes(),
-            snap.original.tobytes(),
-            snap.original_theta,
-        )
+        key = (side, frame, *pose_inputs(snap))
         known = self._poses.get(key)
-        if known is not None:
-            return known[0].copy(), known[1]
-        with self.at(snap) as kin:
-            pose = kin.pose(side, frame).copy()
-            elbow = kin.elbow_angle(side) if kin.has_elbow(side) else 0.0
-        if len(self._poses) >= POSE_CACHE:
-            self._poses.clear()
-        self._poses[key] = (pose.copy(), elbow)
-        return pose, elbow
+        if known is None:
+            with self._lock:
+                # Again under the lock: readers of one snapshot arriving together (the
+                # first computing, the others waiting here) run the kinematics once.
+                known = self._poses.get(key)
+                if known is None:
+                    kin = self._set(snap, None)
+                    known = (kin.pose(side, frame).copy(), self._elbow(kin, side))
+                    if len(self._poses) >= POSE_CACHE:
+                        self._poses.clear()
+                    self._poses[key] = known
+        return known[0].copy(), known[1]
+
+    @staticmethod
+    def _elbow(kin: Kinematics, side: RightLeft) -> float:
+        return kin.elbow_angle(side) if kin.has_elbow(side) else 0.0
 
     def gripper_ratio(self, snap: Snapshot, side: RightLeft) -> float | None:
         """Opening 0 (closed) .. 1 (open) from the gripper's first joint; None: no gripper."""

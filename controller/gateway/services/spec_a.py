@@ -136,13 +136,17 @@ class SpecAService:
     def is_servo_on(self) -> bool:
         return bool(self.ctx.state().servo_on)
 
-    def feedback_cartesian(self, side_value: int, frame_value: int) -> tuple[np.ndarray, float]:
-        """getFeedbackPosCartesian: HgMatrix (3 x 4, [mm]) and elbow [deg]."""
+    def feedback_cartesian(
+        self, side_value: int, frame_value: int, snap: Snapshot | None = None
+    ) -> tuple[np.ndarray, float]:
+        """getFeedbackPosCartesian: HgMatrix (3 x 4, [mm]) and elbow [deg] at ``snap`` (by
+        default the latest snapshot)."""
         view = self.ctx.view
         side = side_arg(view, side_value)
         if frame_value not in (0, 1):
             raise ArgumentError(f"frame_type: {frame_value} is not a FrameType (0, 1)")
-        pose, elbow = view.pose(self.ctx.snapshot(), side, FrameType(frame_value))
+        snap = self.ctx.snapshot() if snap is None else snap
+        pose, elbow = view.pose(snap, side, FrameType(frame_value))
         return se3_to_hg(pose), float(rad_to_deg(elbow))
 
     def gripper_pos(self, side_value: int) -> int:
