@@ -25,7 +25,7 @@ from controller.model import jit
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_joints, axis_value
 from controller.qp.constraints import axes_kernel
-from controller.qp.constraints.braking import BRAKING_SHARE, braking_speed
+from controller.qp.constraints.braking import BRAKING_SHARE
 from controller.qp.constraints.drive import DifferentialDrive
 from controller.qp.constraints.protocol import (
     INF,
@@ -171,29 +171,11 @@ class AxisLimit:
         for k, axis, rmin, rmax in self._ranged:
             x = axis_value(kin, axis)
             brake = float(brake_all[k])
-            # Inside: brake before the bound. Outside (linearisation drift): pull back in.
-            low = -braking_speed(x - rmin, brake, dt)
-            high = braking_speed(rmax - x, brake, dt)
-            if x < rmin:
-                low = HOLD_FRACTION * (rmin - x) / dt
-                high = max(high, low)
-            elif x > rmax:
-                high = HOLD_FRACTION * (rmax - x) / dt
-                low = min(low, high)
+            low, high = axes_kernel.range_band(x, rmin, rmax, brake, dt, HOLD_FRACTION)
             if box:
-                low, high = _fit(low, high, reach_lo[k], reach_hi[k])
+                low, high = axes_kernel.fit(low, high, reach_lo[k], reach_hi[k])
             lo[k], hi[k] = low, high
         return n
-
-
-def _fit(low: float, high: float, r_lo: float, r_hi: float) -> tuple[float, float]:
-    """[low, high] cut to the reachable [r_lo, r_hi]; the nearest reachable value when they
-    do not overlap (the row then asks for the strongest correction the box allows)."""
-    if high < r_lo:
-        return r_lo, r_lo
-    if low > r_hi:
-        return r_hi, r_hi
-    return max(low, r_lo), min(high, r_hi)
 
 
 def _reachable(

@@ -23,6 +23,39 @@ from controller.qp.constraints.protocol import INF
 HELD, FREE, RANGED = 0, 1, 2
 
 
+def range_band(
+    x: float, rmin: float, rmax: float, brake: float, dt: float, hold_fraction: float
+) -> tuple[float, float]:
+    """The rate band [unit/s] of an axis at ``x`` kept in [rmin, rmax] [rad, m]: inside,
+    braking at ``brake`` [unit/s²] before each bound; outside (linearisation drift), pulled
+    back in by ``hold_fraction`` of the gap per cycle of ``dt`` [s]. The Python rows and the
+    compiled ones (:func:`axis_bounds`) both use it."""
+    low = -compiled_braking_speed(x - rmin, brake, dt)
+    high = compiled_braking_speed(rmax - x, brake, dt)
+    if x < rmin:
+        low = hold_fraction * (rmin - x) / dt
+        high = max(high, low)
+    elif x > rmax:
+        high = hold_fraction * (rmax - x) / dt
+        low = min(low, high)
+    return low, high
+
+
+def fit(low: float, high: float, r_lo: float, r_hi: float) -> tuple[float, float]:
+    """[low, high] cut to the reachable [r_lo, r_hi]; the nearest reachable value when they
+    do not overlap (the row then asks for the strongest correction the box allows)."""
+    if high < r_lo:
+        return r_lo, r_lo
+    if low > r_hi:
+        return r_hi, r_hi
+    return max(low, r_lo), min(high, r_hi)
+
+
+#: :func:`range_band` and :func:`fit` for compiled code.
+compiled_range_band = jit.jit(range_band)
+compiled_fit = jit.jit(fit)
+
+
 @jit.jit
 def axis_bounds(
     C: np.ndarray,
@@ -79,21 +112,9 @@ def axis_bounds(
             for j in range(nv):
                 best = max(best, abs(C[k, j]) * a_max[j])
             brake = BRAKING_SHARE * best
-            low = -compiled_braking_speed(x - rmin, brake, dt)
-            high = compiled_braking_speed(rmax - x, brake, dt)
-            if x < rmin:
-                low = hold_fraction * (rmin - x) / dt
-                high = max(high, low)
-            elif x > rmax:
-                high = hold_fraction * (rmax - x) / dt
-                low = min(low, high)
-            if box:  # cut to the reachable band; its nearest end when they do not overlap
-                if high < reach_lo:
-                    low, high = reach_lo, reach_lo
-                elif low > reach_hi:
-                    low, high = reach_hi, reach_hi
-                else:
-                    low, high = max(low, reach_lo), min(high, reach_hi)
+            low, high = compiled_range_band(x, rmin, rmax, brake, dt, hold_fraction)
+            if box:
+                low, high = compiled_fit(low, high, reach_lo, reach_hi)
             lo[k] = low
             hi[k] = high
 
