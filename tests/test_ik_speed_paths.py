@@ -462,13 +462,13 @@ def test_the_warm_start_stays_with_its_layout():
     ik.configure(right)
     q, v, _ = follow(ik, q, v, 5)
     solver = ik.solver
-    assert isinstance(solver, DaqpSolver) and solver._model is not None
+    assert isinstance(solver, DaqpSolver) and solver.warm
     ik.configure(np.ones(kin.nv, dtype=bool))  # held between two motions: nothing to solve
     ik.configure(right)
-    assert ik.solver is solver and solver._model is not None  # the same problem: kept warm
+    assert ik.solver is solver and solver.warm  # the same problem: kept warm
     left = frozen_units(kin, [UnitType.LEFT_ARM])  # the same shape, another problem
     ik.configure(left)
-    assert ik.solver is solver and solver._model is None  # cold
+    assert ik.solver is solver and not solver.warm  # cold
     follow(ik, q, v, 5)
 
 

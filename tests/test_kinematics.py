@@ -390,8 +390,10 @@ def test_a_control_cycle_computes_each_elbow_once():
     goal = core.kin.elbow_angle(side) + m.radians(5)
     speed = np.array([m.radians(20)])
     core.start(CPHoldMotion(core.kin, DT, (side,), {elbow_axis(side): goal}, speed, 2 * speed))
-    calls = {"swivel": 0, "jacobian": 0}
-    swivel, jacobian = core.kin._compute_swivel, core.kin._compute_elbow_jacobian
+    kin = core.kin
+    calls = {"swivel": 0, "jacobian": 0, "kernel": 0}
+    swivel, jacobian = kin._compute_swivel, kin._compute_elbow_jacobian
+    kernel = kin._update_elbows
 
     def count_swivel(s: RightLeft):
         calls["swivel"] += 1
@@ -401,15 +403,43 @@ def test_a_control_cycle_computes_each_elbow_once():
         calls["jacobian"] += 1
         return jacobian(s)
 
-    core.kin._compute_swivel = count_swivel  # type: ignore[method-assign]
-    core.kin._compute_elbow_jacobian = count_jacobian  # type: ignore[method-assign]
+    def count_kernel() -> None:
+        calls["kernel"] += 1
+        kernel()
+
+    kin._compute_swivel = count_swivel  # type: ignore[method-assign]
+    kin._compute_elbow_jacobian = count_jacobian  # type: ignore[method-assign]
+    kin._update_elbows = count_kernel  # type: ignore[method-assign]
     cycles = 0
     while core.motion is not None:
         core.cycle()
         cycles += 1
     assert cycles > 10
-    assert calls["swivel"] <= len(core.kin.arms) * cycles
-    assert calls["jacobian"] <= len(core.kin.arms) * cycles
+    if kin._elbow_args is not None:  # compiled: one call for every arm, nothing else
+        assert 0 < calls["kernel"] <= cycles
+        assert calls["swivel"] == calls["jacobian"] == 0
+    else:
+        assert 0 < calls["swivel"] <= len(kin.arms) * cycles
+        assert calls["jacobian"] <= len(kin.arms) * cycles
+
+
+def test_an_elbow_row_is_valid_until_the_next_update() -> None:
+    """The Jacobian row is read-only; the next update writes the new configuration's row
+    (compiled path: into the same array), and a copy keeps the old one."""
+    kin = kinematics("smartpal5")
+    rng = np.random.default_rng(7)
+    side = RightLeft.RIGHT
+    kin.update(random_configuration(kin, rng))
+    row = kin.elbow_jacobian(side)
+    kept = row.copy()
+    with pytest.raises(ValueError):
+        row[0] = 1.0
+    q = random_configuration(kin, rng)
+    kin.update(q)
+    reference = kinematics("smartpal5")
+    reference.update(q)
+    np.testing.assert_array_equal(kin.elbow_jacobian(side), reference.elbow_jacobian(side))
+    assert not np.array_equal(kept, kin.elbow_jacobian(side))
 
 
 def test_compiled_elbow_equals_the_python_swivel(monkeypatch: pytest.MonkeyPatch) -> None:

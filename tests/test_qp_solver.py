@@ -56,17 +56,21 @@ def test_unknown_solver_name_is_refused():
 
 
 @pytest.mark.parametrize("p", [0, 2])
-def test_daqp_packs_its_bounds_and_rows_the_same_compiled_and_in_numpy(p: int):
-    """The IK's DAQP solvers (no guard) pack bounds, rows and equalities in one compiled
-    call: the same stacked arrays, the same minimiser, over warm-started solves."""
+def test_daqp_gives_the_same_through_its_c_api_compiled_packing_and_numpy(p: int):
+    """The IK's DAQP solvers (no guard) go through DAQP's C API (controller.qp.daqp_c);
+    without it they pack bounds, rows and equalities in one compiled call for daqp.Model,
+    or in NumPy: the same stacked arrays, iterations and minimiser, over warm-started
+    solves."""
     from controller.model import jit
+    from controller.qp import daqp_c
     from controller.qp.solver import DaqpSolver
 
     if not jit.available():
-        pytest.skip("numba not installed")
+        pytest.skip("compiled kernels are off")
     rng = np.random.default_rng(2)
-    compiled, plain = DaqpSolver(12, 4, p, guard=False), DaqpSolver(12, 4, p, guard=False)
-    assert compiled._compiled
+    direct, packed, plain = (DaqpSolver(12, 4, p, guard=False) for _ in range(3))
+    assert daqp_c.available() and direct._c is not None
+    packed._c = plain._c = None
     plain._compiled = False
     H, g, C, lo, hi, lb, ub = random_qp(rng)
     A = rng.normal(size=(p, 12))
@@ -74,12 +78,32 @@ def test_daqp_packs_its_bounds_and_rows_the_same_compiled_and_in_numpy(p: int):
         g = g + 0.05 * rng.normal(size=g.size)
         b = A @ rng.uniform(-0.1, 0.1, 12)
         eq = (A, b) if p else (None, None)
-        x1, x0 = (
-            compiled.solve(H, g, C, lo, hi, lb, ub, *eq),
-            plain.solve(H, g, C, lo, hi, lb, ub, *eq),
-        )
-        assert x1 is not None and x0 is not None
-        np.testing.assert_array_equal(compiled._bu, plain._bu)
-        np.testing.assert_array_equal(compiled._bl, plain._bl)
-        np.testing.assert_array_equal(compiled._rows, plain._rows)
-        np.testing.assert_array_equal(x1, x0)
+        xs = [s.solve(H, g, C, lo, hi, lb, ub, *eq) for s in (direct, packed, plain)]
+        assert all(x is not None for x in xs)
+        np.testing.assert_array_equal(packed._bu, plain._bu)
+        np.testing.assert_array_equal(packed._bl, plain._bl)
+        np.testing.assert_array_equal(packed._rows, plain._rows)
+        np.testing.assert_array_equal(direct._c.bu, plain._bu)
+        np.testing.assert_array_equal(direct._c.rows, plain._rows)
+        np.testing.assert_array_equal(xs[0], xs[2])
+        np.testing.assert_array_equal(xs[1], xs[2])
+        assert direct.iterations == packed.iterations == plain.iterations
+
+
+def test_daqp_through_its_c_api_refuses_an_infeasible_problem_and_recovers():
+    """An infeasible problem gives None; the next solve starts cold and solves."""
+    from controller.qp.solver import DaqpSolver
+
+    rng = np.random.default_rng(8)
+    solver = DaqpSolver(12, 4, guard=False)
+    H, g, C, lo, hi, lb, ub = random_qp(rng)
+    assert solver.solve(H, g, C, lo, hi, lb, ub) is not None
+    C_bad = C.copy()
+    C_bad[2] = C_bad[0]
+    lo_bad, hi_bad = lo.copy(), hi.copy()
+    lo_bad[2] = hi_bad[2] = 5.0  # contradicts row 0 (= 0)
+    assert solver.solve(H, g, C_bad, lo_bad, hi_bad, lb, ub) is None
+    if solver._c is not None:
+        assert not solver._c.ready  # set up again at the next solve
+    x = solver.solve(H, g, C, lo, hi, lb, ub)
+    assert x is not None and abs(C[0] @ x) < 1e-8

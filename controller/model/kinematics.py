@@ -38,8 +38,6 @@ from controller.model.robot import Robot
 from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
 
 #: The swivel's point gradients where the compiled kernel computed the Jacobian row instead.
-_NO_GRADIENT = np.full(3, np.nan)
-_NO_GRADIENT.flags.writeable = False
 
 
 class Kinematics:
@@ -110,6 +108,15 @@ class Kinematics:
         self._elbow_sides = list(self._elbow_frames)
         self._elbow_values = np.zeros((len(self._elbow_sides), 2))
         self._elbows_done = False
+        #: Compiled path: each arm's position in the kernel's outputs, its (angle, offset) as
+        #: floats after the last call, and its Jacobian row: a read-only view of one buffer
+        #: the kernel writes in place (only the arm's columns; the others stay 0).
+        self._elbow_index = {side: i for i, side in enumerate(self._elbow_sides)}
+        self._elbow_list: list[list[float]] = []
+        self._elbow_out = np.zeros((len(self._elbow_sides), self.nv))
+        self._elbow_rows = [self._elbow_out[i] for i in range(len(self._elbow_sides))]
+        for row in self._elbow_rows:
+            row.flags.writeable = False
         #: The vehicle pose and rows from one compiled call (:func:`_vehicle_rows`).
         self._compiled_vehicle = jit.available()
         if jit.available() and self._elbow_sides:
@@ -159,8 +166,9 @@ class Kinematics:
         pin.computeJointJacobians(self.model, self.data, self._q)
         pin.updateFramePlacements(self.model, self.data)
         self._oMf = self.data.oMf  # a live view of the placements: each access builds one
-        self._elbow_cache.clear()
-        self._elbow_jac_cache.clear()
+        if self._elbow_args is None:
+            self._elbow_cache.clear()
+            self._elbow_jac_cache.clear()
         self._elbows_done = False
         self._vehicle_cache = None
 
@@ -290,10 +298,6 @@ class Kinematics:
         return cached
 
     def _compute_swivel(self, side: RightLeft) -> Swivel:
-        if self._elbow_args is not None:
-            if not self._elbows_done:
-                self._update_elbows()
-            return self._elbow_cache[side]
         # The swivel angle is built from dot and cross products only, so it is the same in
         # any frame: rotate the two reference directions (2 products) rather than the three
         # points, and the gradients come out in world axes, as the frame Jacobians are.
@@ -338,30 +342,38 @@ class Kinematics:
         )  # fmt: skip
 
     def _update_elbows(self) -> None:
-        """Every arm's elbow angle, offset and Jacobian row in one compiled call (cached)."""
+        """Every arm's elbow angle, offset and Jacobian row in one compiled call, into the
+        buffers :meth:`elbow_angle`, :meth:`elbow_offset` and :meth:`elbow_jacobian` read."""
         assert self._elbow_args is not None
-        rows = np.zeros((len(self._elbow_sides), self.nv))
-        values = self._elbow_values
-        elbow_rows(self._q, rows, values, *self._elbow_args)
-        rows.flags.writeable = False
-        none, sides = _NO_GRADIENT, self._elbow_sides
-        for side, (angle, offset), row in zip(sides, values.tolist(), rows, strict=True):
-            self._elbow_cache[side] = Swivel(angle, none, none, none, offset)
-            self._elbow_jac_cache[side] = row
+        elbow_rows(self._q, self._elbow_out, self._elbow_values, *self._elbow_args)
+        self._elbow_list = self._elbow_values.tolist()
         self._elbows_done = True
 
     def elbow_angle(self, side: RightLeft) -> float:
         """Elbow (swivel) angle [rad]; see :mod:`controller.model.elbow` for the definition."""
-        return self._swivel(side).angle
+        if self._elbow_args is None:
+            return self._swivel(side).angle
+        if not self._elbows_done:
+            self._update_elbows()
+        return self._elbow_list[self._elbow_index[side]][0]
 
     def elbow_offset(self, side: RightLeft) -> float:
         """Distance [m] of the elbow from the shoulder-wrist line (0 = fully stretched)."""
-        return self._swivel(side).offset
+        if self._elbow_args is None:
+            return self._swivel(side).offset
+        if not self._elbows_done:
+            self._update_elbows()
+        return self._elbow_list[self._elbow_index[side]][1]
 
     def elbow_jacobian(self, side: RightLeft) -> np.ndarray:
         """``nv`` gradient of the elbow angle [rad per unit of q]; zero off the arm's joints.
 
-        Read-only (cached until the next :meth:`update`)."""
+        Read-only, valid until the next :meth:`update` (the compiled path writes the next
+        configuration's row into the same array then: copy it to keep it)."""
+        if self._elbow_args is not None:
+            if not self._elbows_done:
+                self._update_elbows()
+            return self._elbow_rows[self._elbow_index[side]]
         cached = self._elbow_jac_cache.get(side)
         if cached is None:
             self._swivel(side)  # the compiled path computes the row with the angle

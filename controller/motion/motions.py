@@ -33,7 +33,7 @@ import numpy as np
 
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, available_axes, axis_value, elbow_axis
-from controller.motion.paths import ArcPath, LinePath, VectorPath
+from controller.motion.paths import ArcPath, LinePath, VectorPath, unit_clamp
 from controller.motion.posture import PosturePath
 from controller.motion.profile import PathProfile, ProfileState
 from controller.qp.tasks import AxisTask, ControlPointTask, PostureTask, Task
@@ -136,10 +136,12 @@ class Motion(abc.ABC):
 
 
 def follow_vector(tasks: list[AxisTask], path: VectorPath, s0: float, s1: float, dt: float):
-    """Axis tasks on ``path``: target at ``s0``, average rate toward ``s1``."""
-    now, nxt = path.at(s0), path.at(s1)
-    for i, task in enumerate(tasks):
-        task.set_target(float(now[i]), float(nxt[i] - now[i]) / dt)
+    """Axis tasks on ``path``: target at ``s0``, average rate toward ``s1`` (the arithmetic
+    of :meth:`VectorPath.at`, on floats)."""
+    a, b = unit_clamp(s0), unit_clamp(s1)
+    for task, x0, d in zip(tasks, path.start_floats, path.delta_floats, strict=True):
+        now = x0 + a * d
+        task.set_target(now, (x0 + b * d - now) / dt)
 
 
 def follow_posture(task: PostureTask, path: PosturePath, s0: float, s1: float, dt: float):

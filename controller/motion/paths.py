@@ -26,7 +26,8 @@ from controller.model import jit
 TINY = 1e-12
 
 
-def _clamp(s: float) -> float:
+def unit_clamp(s: float) -> float:
+    """``s`` clamped to [0, 1]."""
     return 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
 
 
@@ -41,9 +42,13 @@ class VectorPath:
         self.start = np.asarray(start, dtype=float)
         self.end = np.asarray(end, dtype=float)
         self.delta = self.end - self.start
+        #: ``start`` and ``delta`` as floats, for paths of a few axes followed every cycle
+        #: (:func:`controller.motion.motions.follow_vector`: no array per cycle).
+        self.start_floats: list[float] = self.start.tolist()
+        self.delta_floats: list[float] = self.delta.tolist()
 
     def at(self, s: float) -> np.ndarray:
-        return self.start + _clamp(s) * self.delta
+        return self.start + unit_clamp(s) * self.delta
 
     def rate(self, s: float, sd: float) -> np.ndarray:
         """d/dt x for ṡ = ``sd``."""
@@ -90,7 +95,7 @@ class LinePath:
         return float(np.linalg.norm(self.omega))
 
     def at(self, s: float) -> pin.SE3:
-        s = _clamp(s)
+        s = unit_clamp(s)
         if self._compiled:
             _line_pose(self._r0, self._p0, self.omega, self.dp, s, self._rotation, self._position)
             return pin.SE3(self._rotation, self._position)
@@ -98,7 +103,7 @@ class LinePath:
 
     def rotation_at(self, s: float) -> np.ndarray:
         """The orientation at ``s`` (a 3x3 matrix)."""
-        return self._r0 @ pin.exp3(_clamp(s) * self.omega)
+        return self._r0 @ pin.exp3(unit_clamp(s) * self.omega)
 
     def twist(self, s: float, sd: float) -> np.ndarray:
         """Linear [m/s] and angular [rad/s] velocity (frame axes) for ṡ = ``sd``."""
@@ -109,7 +114,7 @@ class LinePath:
         (linear [m/s], angular [rad/s], world axes), in closed form: both components are
         proportional to s on a line, so it is the twist at the mean rate, with no log3 of
         the relative rotation (equal to it while the step turns less than π)."""
-        return self._twist_per_s * ((_clamp(s1) - _clamp(s0)) / dt)
+        return self._twist_per_s * ((unit_clamp(s1) - unit_clamp(s0)) / dt)
 
     def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
         """(ṡ_max, s̈_max) from (translation, rotation) speed and acceleration limits."""
@@ -203,7 +208,7 @@ class ArcPath:
         return self._rotation.angle
 
     def at(self, s: float) -> pin.SE3:
-        s = _clamp(s)
+        s = unit_clamp(s)
         return pin.SE3(self._rotation.rotation_at(s), self._position(s))
 
     def average_twist(self, s0: float, s1: float, dt: float) -> np.ndarray:
@@ -214,11 +219,11 @@ class ArcPath:
         return out
 
     def _position(self, s: float) -> np.ndarray:
-        phi = _clamp(s) * self.sweep
+        phi = unit_clamp(s) * self.sweep
         return self.centre + self.radius * (math.cos(phi) * self._e1 + math.sin(phi) * self._e2)
 
     def twist(self, s: float, sd: float) -> np.ndarray:
-        phi = _clamp(s) * self.sweep
+        phi = unit_clamp(s) * self.sweep
         out = np.empty(6)
         tangent = -math.sin(phi) * self._e1 + math.cos(phi) * self._e2
         out[:3] = self.radius * self.sweep * sd * tangent

@@ -2,7 +2,8 @@
 s.t. Ax = b, lo ≤ Cx ≤ hi, lb ≤ x ≤ ub.
 
 :class:`DaqpSolver` (default, :data:`DEFAULT_SOLVER`) keeps one DAQP workspace (a dual
-active-set method in C) and hot-starts every solve from the previous working set: on the
+active-set method in C; the IK's solvers through DAQP's C API, :mod:`.daqp_c`, others through
+``daqp.Model``) and hot-starts every solve from the previous working set: on the
 IK's problems it needs one iteration per cycle, even with limits binding, and its result is
 exact on the active constraints (no iterative residual). :class:`ProxQPSolver` keeps one
 ``proxsuite.proxqp.dense.QP``, warm-started from the previous result, with native box
@@ -26,6 +27,8 @@ import qpsolvers
 from proxsuite import proxqp
 
 from controller.model import jit
+from controller.qp import daqp_c
+from controller.qp.daqp_c import pack as _pack
 
 #: Bounds beyond this magnitude are treated as absent (proxsuite takes finite numbers best).
 INF = 1e20
@@ -133,9 +136,22 @@ class DaqpSolver(QPSolver):
         #: The IK's solvers (no guard) pack their bounds and rows in one compiled call.
         self._compiled = not guard and jit.available()
         self._no_eq = (np.zeros((0, n)), np.zeros(0))
+        #: The IK's solvers go through DAQP's C API where it checks out (:mod:`.daqp_c`).
+        self._c = (
+            daqp_c.Workspace(n, m, p, primal_tol, self.max_iter)
+            if self._compiled and daqp_c.available()
+            else None
+        )
 
     def reset(self) -> None:
         self._model = None
+        if self._c is not None:
+            self._c.ready = False
+
+    @property
+    def warm(self) -> bool:
+        """Whether the next solve starts from the last working set (else it sets up cold)."""
+        return self._c.ready if self._c is not None else self._model is not None
 
     def solve(
         self,
@@ -151,6 +167,8 @@ class DaqpSolver(QPSolver):
     ) -> np.ndarray | None:
         if self.guard and np.count_nonzero(lb > ub):
             return None
+        if self._c is not None:
+            return self._solve_c(self._c, H, g, C, lo, hi, lb, ub, A, b)
         n, m = self.n, self.m
         rows = self._rows
         if m + self.p and self._compiled:
@@ -188,36 +206,41 @@ class DaqpSolver(QPSolver):
             return x
         return None
 
-
-@jit.jit
-def _pack(
-    lb: np.ndarray,
-    ub: np.ndarray,
-    C: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    A: np.ndarray,
-    b: np.ndarray,
-    bu: np.ndarray,
-    bl: np.ndarray,
-    rows: np.ndarray,
-) -> None:
-    """DAQP's stacked bounds ``[box; rows; equalities]`` and rows ``[C; A]`` in one call
-    (:class:`DaqpSolver` with the IK's arrays; seven NumPy copies otherwise)."""
-    n, m, p = lb.shape[0], C.shape[0], A.shape[0]
-    for i in range(n):
-        bu[i] = ub[i]
-        bl[i] = lb[i]
-    for k in range(m):
-        bu[n + k] = hi[k]
-        bl[n + k] = lo[k]
-        for j in range(n):
-            rows[k, j] = C[k, j]
-    for k in range(p):
-        bu[n + m + k] = b[k]
-        bl[n + m + k] = b[k]
-        for j in range(n):
-            rows[m + k, j] = A[k, j]
+    def _solve_c(
+        self,
+        work: daqp_c.Workspace,
+        H: np.ndarray,
+        g: np.ndarray,
+        C: np.ndarray,
+        lo: np.ndarray,
+        hi: np.ndarray,
+        lb: np.ndarray,
+        ub: np.ndarray,
+        A: np.ndarray | None,
+        b: np.ndarray | None,
+    ) -> np.ndarray | None:
+        """:meth:`solve` through DAQP's C API (the same steps and results as through
+        ``daqp.Model``; the minimiser is the workspace's own array)."""
+        eq_rows, eq_rhs = self._no_eq if A is None or b is None else (A, b)
+        work.load(H, g, lb, ub, C, lo, hi, eq_rows, eq_rhs)
+        if work.ready:
+            if work.update_and_solve() < 0:
+                work.ready = False
+                return None
+        else:
+            if work.setup() < 0:
+                work.ready = False
+                return None
+            work.solve()
+        result, x = work.result, work.x
+        self.iterations = result.iter
+        flag = result.exitflag
+        if flag > 0:
+            return x
+        work.ready = False  # the working set is no start for the next cycle
+        if flag == _DAQP_ITER_LIMIT and within_limits(x, C, lo, hi, lb, ub, A, b):
+            return x
+        return None
 
 
 class ProxQPSolver(QPSolver):
@@ -331,10 +354,3 @@ def make_solver(name: str, n: int, m: int, p: int = 0, guard: bool = True) -> QP
         backend = name.partition(":")[2] or None
         return QpsolversSolver(n, m, p, backend)
     raise ValueError(f"unknown QP solver {name!r}: use 'daqp', 'proxqp' or 'qpsolvers[:backend]'")
-
-
-if jit.available():  # compile (or load) at import, for the IK's arrays: never in a cycle
-    _pack(
-        np.zeros(2), np.zeros(2), np.zeros((1, 2)), np.zeros(1), np.zeros(1), np.zeros((1, 2)),
-        np.zeros(1), np.zeros(4), np.zeros(4), np.zeros((2, 2)),
-    )  # fmt: skip

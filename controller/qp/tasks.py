@@ -283,6 +283,12 @@ class PostureTask(Task):
         # Own copies, contiguous and writable (what the compiled posture path is built for).
         self.reference = np.array(reference, dtype=float)
         self.joints = np.array(joints, dtype=np.int64)
+        #: ``joints`` as a slice when they are consecutive (a view, not a gather, per cycle).
+        self._take: slice | np.ndarray = self.joints
+        if len(self.joints) and np.array_equal(
+            self.joints, np.arange(self.joints[0], self.joints[0] + len(self.joints))
+        ):
+            self._take = slice(int(self.joints[0]), int(self.joints[-1]) + 1)
         self.gain = gain
         self.weight = np.full(len(self.joints), weight)
         self._jac: np.ndarray | None = None
@@ -307,7 +313,8 @@ class PostureTask(Task):
         if self._every and len(reference) == len(q):
             np.subtract(reference, q, out=rate)
         else:
-            np.subtract(reference[self.joints], q[self.joints], out=rate)
+            take = self._take
+            np.subtract(reference[take], q[take], out=rate)
         if self.gain != 1.0:  # x·1 = x exactly: skip the product
             rate *= self.gain
         rate += self.rate
