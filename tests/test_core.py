@@ -322,7 +322,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     signature."""
     import pinocchio as pin
 
-    from controller.model import collision_kernel, elbow, jit
+    from controller.model import collision_kernel, elbow, jit, joint_chain
     from controller.model.redundant_axes import RedundantAxis, elbow_axis
     from controller.motion import paths, posture
     from controller.motion.motions import CartesianMotion, CPHoldMotion, follow_posture
@@ -340,7 +340,9 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         collision_kernel.update,
         collision_kernel.jacobian_rows,
         damper_kernel.collision_rows,
-        elbow.elbow_rows,
+        elbow.elbows_at,
+        joint_chain.forward,
+        joint_chain.frame_world,
         joint_box.box_bounds,
         tasks._pose_error,
         tasks._control_point_rows,

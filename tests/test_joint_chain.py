@@ -50,3 +50,38 @@ def test_a_joint_of_more_than_one_dof_is_refused() -> None:
     model.addJoint(0, pin.JointModelSpherical(), pin.SE3.Identity(), "ball")
     with pytest.raises(Unsupported, match="ball"):
         JointChain(model)
+
+
+@pytest.mark.parametrize("robot_id", ROBOT_IDS)
+def test_a_frames_placement_and_jacobian_are_pinocchios(robot_id: str) -> None:
+    """frame_world: every frame's world placement and LOCAL_WORLD_ALIGNED Jacobian (vehicle
+    columns included) equal Pinocchio's at random configurations."""
+    from controller.model.joint_chain import frame_world
+
+    kin = kinematics(robot_id)
+    model = kin.model
+    chain = JointChain(model)
+    data = model.createData()
+    rng = np.random.default_rng(9)
+    for _ in range(5):
+        q = random_configuration(kin, rng)
+        chain.forward(q)
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        for fid in range(1, len(model.frames)):
+            frame = model.frames[fid]
+            joint = frame.parentJoint
+            local = np.zeros((4, 3))
+            local[:3], local[3] = frame.placement.rotation, frame.placement.translation
+            support = np.array(
+                [model.joints[j].idx_v for j in model.supports[joint] if j > 0], dtype=np.int64
+            )
+            jac, placement = np.zeros((6, kin.nv)), np.zeros((4, 3))
+            frame_world(
+                chain.joint_world, chain.columns, chain.column_kind, joint, local, support,
+                jac, placement,
+            )  # fmt: skip
+            ref = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            np.testing.assert_allclose(jac, ref, atol=1e-12)
+            np.testing.assert_allclose(placement[:3], data.oMf[fid].rotation, atol=1e-12)
+            np.testing.assert_allclose(placement[3], data.oMf[fid].translation, atol=1e-12)

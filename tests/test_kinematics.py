@@ -485,3 +485,34 @@ def test_an_array_changed_after_the_update_does_not_change_the_elbow() -> None:
     for side in kin.arms:
         assert kin.elbow_angle(side) == reference.elbow_angle(side)
         np.testing.assert_array_equal(kin.elbow_jacobian(side), reference.elbow_jacobian(side))
+
+
+def test_compiled_control_point_equals_pinocchio(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The control point's world Jacobian and placement from the shared compiled placements
+    against Pinocchio's, on every robot, with a moved control point too."""
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off in this variant")
+    rng = np.random.default_rng(21)
+    for robot_id in ("smartpal5", "seednoid", "pa10", "rh"):
+        compiled = kinematics(robot_id)
+        monkeypatch.setenv("IMOTION_JIT", "0")
+        python = kinematics(robot_id)
+        monkeypatch.delenv("IMOTION_JIT")
+        assert compiled._cp_world and not python._cp_world
+        offset = pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([0.01, -0.02, 0.15]))
+        for trial in range(30):
+            if trial == 15:
+                for kin in (compiled, python):
+                    for side in kin.arms:
+                        kin.set_control_point_offset(side, offset)
+            q = random_configuration(compiled, rng)
+            compiled.update(q)
+            python.update(q)
+            for side in compiled.arms:
+                jac, rot, pos = compiled.control_point_world(side)
+                ref_jac, ref_rot, ref_pos = python.control_point_world(side)
+                np.testing.assert_allclose(jac, ref_jac, atol=1e-12)
+                np.testing.assert_allclose(rot, ref_rot, atol=1e-12)
+                np.testing.assert_allclose(pos, ref_pos, atol=1e-12)

@@ -246,13 +246,32 @@ def elbow_rows(
 ) -> None:
     """Every arm's elbow at ``q`` [rad, m] in one call, without reading placements back from
     Pinocchio: the joints' placements (:func:`~controller.model.joint_chain.forward`, its
-    five arrays after ``rows`` and ``values``), then per arm ``i`` its base rotation and
+    five arrays after ``rows`` and ``values``), then :func:`elbows_at`."""
+    forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
+    elbows_at(rows, values, joint_world, frame_joint, frame_local, directions, jac, arm_columns,
+              counts, masks)  # fmt: skip
+
+
+@jit
+def elbows_at(
+    rows: np.ndarray,
+    values: np.ndarray,
+    joint_world: np.ndarray,
+    frame_joint: np.ndarray,
+    frame_local: np.ndarray,
+    directions: np.ndarray,
+    jac: np.ndarray,
+    arm_columns: np.ndarray,
+    counts: np.ndarray,
+    masks: np.ndarray,
+) -> None:
+    """Every arm's elbow from the joints' world placements ``joint_world`` (after
+    :func:`~controller.model.joint_chain.forward`): per arm ``i`` its base rotation and
     shoulder, elbow and wrist points from ``frame_joint[i]`` (the joints carrying the arm
     base, shoulder, elbow and wrist frames) and ``frame_local[i]`` (those frames' placements
     on their joints, 4 x 4 x 3), and :func:`elbow_kernel` into ``rows[i]`` and
     ``values[i]``. ``arm_columns[i, :counts[i]]`` and ``masks[i, :, :counts[i]]`` are that
     call's ``columns`` and ``masks``, ``directions[i]`` its forward and down directions."""
-    forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
     placement = np.empty((4, 3))
     base = np.empty((3, 3))
     points = np.empty((3, 3))

@@ -90,6 +90,38 @@ def forward(
             columns[v, 1, a] = joint_world[j, 3, a]
 
 
+@jit
+def frame_world(
+    joint_world: np.ndarray,
+    columns: np.ndarray,
+    column_kind: np.ndarray,
+    joint: int,
+    local: np.ndarray,
+    support: np.ndarray,
+    jac: np.ndarray,
+    placement: np.ndarray,
+) -> None:
+    """A frame's world ``placement`` (4 x 3) and its ``6 x nv`` Jacobian ``jac`` in world
+    axes at the frame's origin (Pinocchio's LOCAL_WORLD_ALIGNED: linear [m/s], angular
+    [rad/s] per unit of velocity), after :func:`forward`: the frame sits at ``local`` on
+    ``joint``, which the velocity columns ``support`` move. Other columns are left at 0
+    (``jac`` is written only there: zero it once)."""
+    compose(joint_world[joint], local, placement)
+    px, py, pz = placement[3, 0], placement[3, 1], placement[3, 2]
+    for k in range(support.shape[0]):
+        v = support[k]
+        ax, ay, az = columns[v, 0, 0], columns[v, 0, 1], columns[v, 0, 2]
+        if column_kind[v] == REVOLUTE:
+            dx, dy, dz = px - columns[v, 1, 0], py - columns[v, 1, 1], pz - columns[v, 1, 2]
+            jac[0, v] = ay * dz - az * dy
+            jac[1, v] = az * dx - ax * dz
+            jac[2, v] = ax * dy - ay * dx
+            jac[3, v], jac[4, v], jac[5, v] = ax, ay, az
+        else:
+            jac[0, v], jac[1, v], jac[2, v] = ax, ay, az
+            jac[3, v] = jac[4, v] = jac[5, v] = 0.0
+
+
 class JointChain:
     """The arrays :func:`forward` reads and writes for one model (written in place, never
     replaced; not thread-safe: one per user).

@@ -20,9 +20,12 @@ Per-update cache: the elbow swivel (angle, offset, gradient) and Jacobian, the v
 and Jacobian are computed at most once per :meth:`Kinematics.update` however many tasks,
 constraints and motions ask (issue 14); the composite waist rows once for good. Arrays
 returned from the cache are read-only: copy before modifying. With compiled kernels
-(:mod:`controller.model.jit`) the elbow's angle, offset and Jacobian row come from one call
-of :func:`~controller.model.elbow.elbow_rows` for all arms (its own forward kinematics, no
-placements read back from Pinocchio), with the world Jacobian the update left.
+(:mod:`controller.model.jit`) the joints' placements are computed once per update when first
+needed (:func:`~controller.model.joint_chain.forward`, no placements read back from
+Pinocchio) and shared: the elbows' angle, offset and Jacobian row come from one call of
+:func:`~controller.model.elbow.elbows_at` for all arms (with the world Jacobian the update
+left), a control point's placement and Jacobian from one call of
+:func:`~controller.model.joint_chain.frame_world`.
 """
 
 from __future__ import annotations
@@ -32,12 +35,10 @@ import pinocchio as pin
 
 from controller.conversions import offset_to_se3
 from controller.model import jit
-from controller.model.elbow import Swivel, elbow_rows, swivel
-from controller.model.joint_chain import JointChain, Unsupported
+from controller.model.elbow import Swivel, elbows_at, swivel
+from controller.model.joint_chain import JointChain, Unsupported, frame_world
 from controller.model.robot import Robot
 from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
-
-#: The swivel's point gradients where the compiled kernel computed the Jacobian row instead.
 
 
 class Kinematics:
@@ -119,17 +120,38 @@ class Kinematics:
             row.flags.writeable = False
         #: The vehicle pose and rows from one compiled call (:func:`_vehicle_rows`).
         self._compiled_vehicle = jit.available()
-        if jit.available() and self._elbow_sides:
+        #: With compiled kernels: the joints' world placements and Jacobian columns, computed
+        #: once per update when first needed (:meth:`_place`) and read by the elbows and the
+        #: control points (None: Pinocchio's placements and Jacobians are read instead).
+        self._chain: JointChain | None = None
+        if jit.available():
             try:
-                chain = JointChain(model)
+                self._chain = JointChain(model)
             except Unsupported:
-                chain = None
-            if chain is not None:
-                self._elbow_args = self._elbow_arrays(chain)
+                self._chain = None
+        self._placed = False
+        #: Per arm, compiled: the control point's Jacobian and placement buffers (and views
+        #: of its rotation and translation), its joint, placement on it and support columns.
+        self._cp_world: dict[RightLeft, tuple[np.ndarray, ...]] = {}
+        self._cp_joint = {side: model.frames[f].parentJoint for side, f in self._cp_frame.items()}
+        if self._chain is not None:
+            for side, fid in self._cp_frame.items():
+                joint = model.frames[fid].parentJoint
+                support = [model.joints[j].idx_v for j in model.supports[joint] if j > 0]
+                placement = np.zeros((4, 3))
+                self._cp_world[side] = (
+                    np.zeros((6, self.nv)), placement, placement[:3], placement[3],
+                    np.array(support, dtype=np.int64), np.zeros((4, 3)),
+                )  # fmt: skip
+                self._set_cp_local(side)
+            if self._elbow_sides:
+                self._elbow_args = self._elbow_arrays(self._chain)
         self._q = pin.neutral(model)
         self.update(self._q)
         if self._elbow_args is not None:  # compile (or load) now, not in a control cycle
             self._update_elbows()
+        for side in self._cp_world:
+            self.control_point_world(side)
         self._original_theta = 0.0
         self._set_original(self.data.oMf[self._body_frame].copy())
 
@@ -170,6 +192,7 @@ class Kinematics:
             self._elbow_cache.clear()
             self._elbow_jac_cache.clear()
         self._elbows_done = False
+        self._placed = False
         self._vehicle_cache = None
 
     @property
@@ -237,6 +260,22 @@ class Kinematics:
         """
         flange = self.model.frames[self._flange_frame[side]].placement
         self.model.frames[self._cp_frame[side]].placement = flange * offset
+        if side in self._cp_world:
+            self._set_cp_local(side)
+
+    def _set_cp_local(self, side: RightLeft) -> None:
+        """The compiled path's copy of the control point's placement on its joint."""
+        placement = self.model.frames[self._cp_frame[side]].placement
+        local = self._cp_world[side][5]
+        local[:3] = placement.rotation
+        local[3] = placement.translation
+
+    def _place(self) -> None:
+        """The joints' world placements and Jacobian columns at this update's ``q``, once."""
+        if not self._placed:
+            assert self._chain is not None
+            self._chain.forward(self._q)
+            self._placed = True
 
     def flange_pose(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> pin.SE3:
         return self._frame_of(frame).actInv(self.data.oMf[self._flange_frame[side]])
@@ -260,13 +299,27 @@ class Kinematics:
             return jac if to_original is None else to_original.dot(jac)
         return self._frame_jacobian(self._cp_frame[side], frame)
 
-    def control_point_world(self, side: RightLeft) -> tuple[np.ndarray, pin.SE3]:
-        """The control point's ``6 x nv`` Jacobian in world axes (linear, angular) and its
-        placement in the world: what :meth:`pose` and :meth:`jacobian` rotate into the
-        original frame (:attr:`original_arrays`)."""
+    def control_point_world(self, side: RightLeft) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The control point's ``6 x nv`` Jacobian in world axes (linear, angular), its
+        rotation and translation [m] in the world: what :meth:`pose` and :meth:`jacobian`
+        rotate into the original frame (:attr:`original_arrays`). Read-only, valid until
+        the next :meth:`update` (compiled, one call on the shared placements of
+        :meth:`_place`; else read from Pinocchio)."""
+        world = self._cp_world.get(side)
+        if world is not None:
+            chain = self._chain
+            assert chain is not None
+            self._place()
+            jac, placement, rotation, translation, support, local = world
+            frame_world(
+                chain.joint_world, chain.columns, chain.column_kind, self._cp_joint[side], local,
+                support, jac, placement,
+            )  # fmt: skip
+            return jac, rotation, translation
         fid = self._cp_frame[side]
         jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
-        return jac, self._oMf[fid]
+        placement = self._oMf[fid]
+        return jac, placement.rotation, placement.translation
 
     def _frame_jacobian(self, fid: int, frame: FrameType) -> np.ndarray:
         jac: np.ndarray = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
@@ -310,9 +363,10 @@ class Kinematics:
         )
 
     def _elbow_arrays(self, chain: JointChain) -> tuple[np.ndarray, ...]:
-        """:func:`~controller.model.elbow.elbow_rows`'s arguments for this model's arms: the
-        chain's arrays, each arm's four frames (arm base, shoulder, elbow, wrist) as their
-        joint and placement on it, directions, columns and which of them move each point."""
+        """:func:`~controller.model.elbow.elbows_at`'s arguments after the joints' placements,
+        for this model's arms: each arm's four frames (arm base, shoulder, elbow, wrist) as
+        their joint and placement on it, directions, Pinocchio's joint Jacobians, the arm's
+        columns and which of them move each point."""
         model, sides = self.model, self._elbow_sides
         n = len(sides)
         width = max(len(self._units[UnitType[f"{side.name}_ARM"]]) for side in sides)
@@ -336,16 +390,14 @@ class Kinematics:
             for k, fid in enumerate(self._elbow_frames[side][1:]):
                 moves = set(model.supports[model.frames[fid].parentJoint])
                 masks[i, k, : len(cols)] = [column_joint[c] in moves for c in cols.tolist()]
-        return (
-            *chain.arrays, frame_joint, frame_local, directions, self.data.J,
-            arm_columns, counts, masks,
-        )  # fmt: skip
+        return frame_joint, frame_local, directions, self.data.J, arm_columns, counts, masks
 
     def _update_elbows(self) -> None:
         """Every arm's elbow angle, offset and Jacobian row in one compiled call, into the
         buffers :meth:`elbow_angle`, :meth:`elbow_offset` and :meth:`elbow_jacobian` read."""
-        assert self._elbow_args is not None
-        elbow_rows(self._q, self._elbow_out, self._elbow_values, *self._elbow_args)
+        assert self._elbow_args is not None and self._chain is not None
+        self._place()
+        elbows_at(self._elbow_out, self._elbow_values, self._chain.joint_world, *self._elbow_args)
         self._elbow_list = self._elbow_values.tolist()
         self._elbows_done = True
 

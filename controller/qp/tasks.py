@@ -90,13 +90,13 @@ class ControlPointTask(Task):
 
     def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
         if _COMPILED:
-            world, placement = kin.control_point_world(self.side)
+            world, rotation, translation = kin.control_point_world(self.side)
             r_o, p_o = kin.original_arrays
             target = self.target
             _control_point_rows(
-                world, placement.rotation, placement.translation, r_o, p_o, target.rotation,
-                target.translation, self.twist, float(self.gain), jac is not None,
-                _NO_ROWS if jac is None else jac, rate,
+                world, rotation, translation, r_o, p_o, target.rotation, target.translation,
+                self.twist, float(self.gain), jac is not None, _NO_ROWS if jac is None else jac,
+                rate,
             )  # fmt: skip
             return
         if jac is not None:
@@ -348,5 +348,10 @@ if _COMPILED:  # compile (or load) at import for Pinocchio's arrays: never in a 
     _rows = np.zeros((8, 2), order="F")[1:7]  # a task's rows: a slice of the F-order stack
     _control_point_rows(
         pin.Data(pin.Model()).J, _one.rotation, _one.translation, np.eye(3), np.zeros(3),
+        _one.rotation, _one.translation, np.zeros(6), 1.0, True, _rows, np.zeros(6),
+    )  # fmt: skip
+    _placement = np.zeros((4, 3))  # the compiled kinematics' buffers (Kinematics._cp_world)
+    _control_point_rows(
+        np.zeros((6, 2)), _placement[:3], _placement[3], np.eye(3), np.zeros(3),
         _one.rotation, _one.translation, np.zeros(6), 1.0, True, _rows, np.zeros(6),
     )  # fmt: skip
