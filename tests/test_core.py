@@ -326,7 +326,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     from controller.model.redundant_axes import RedundantAxis, elbow_axis
     from controller.motion import paths, posture
     from controller.motion.motions import CartesianMotion, CPHoldMotion, follow_posture
-    from controller.qp import cost_kernel, daqp_c, tasks
+    from controller.qp import cost_kernel, daqp_c, ik, tasks
     from controller.qp.constraints import axes_kernel, damper_kernel, joint_box
 
     if not jit.available():
@@ -351,6 +351,8 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         paths._line_pose,
         axes_kernel.axis_bounds,
         daqp_c.fill,
+        ik._equalities,
+        ik._clip_into,
     )
     before = [len(k.signatures) for k in kernels]
     assert all(before)

@@ -170,3 +170,44 @@ def test_failed_solve_holds_position(monkeypatch: pytest.MonkeyPatch):
     assert not result.ok
     assert np.array_equal(result.velocity, np.zeros(kin.nv))
     assert "infeasible" in result.message
+
+
+def test_the_compiled_clip_and_equalities_equal_numpys() -> None:
+    """The IK's last steps in one call each: the clip into the free joints' velocities
+    (NaN limits or minimisers stay NaN and say so, an overflow of v·v too) and level 2's
+    equality rows and right-hand side, against the NumPy code they replace."""
+    from controller.model import jit
+    from controller.qp import ik as ik_module
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off in this variant")
+    rng = np.random.default_rng(17)
+    for trial in range(200):
+        nv = int(rng.integers(3, 12))
+        free = np.sort(rng.choice(nv, size=int(rng.integers(1, nv + 1)), replace=False))
+        n = len(free)
+        x = rng.normal(size=n)
+        lb, ub = -rng.uniform(0, 1, n), rng.uniform(0, 1, n)
+        if trial % 7 == 1:
+            lb[rng.integers(n)] = np.nan
+        if trial % 11 == 2:
+            x[rng.integers(n)] = np.nan
+        if trial % 13 == 3:
+            ub[rng.integers(n)] = 1e200
+            x[:] = 1e200
+        base = rng.normal(size=nv)
+        expected = base.copy()
+        expected[free] = np.minimum(np.maximum(x, lb), ub)
+        v = base.copy()
+        finite = ik_module._clip_into(x, lb, ub, free.astype(np.int64), v)
+        np.testing.assert_array_equal(v, expected)
+        with np.errstate(over="ignore"):  # the overflow case
+            assert finite == math.isfinite(expected.dot(expected))
+        p = int(rng.integers(1, 7))
+        jac = np.asfortranarray(rng.normal(size=(p + 2, nv)))
+        A, b = np.zeros((p, n)), np.zeros(p)
+        ik_module._equalities(jac, free.astype(np.int64), x, A, b)
+        reference = np.ascontiguousarray(jac[:p, free])
+        np.testing.assert_array_equal(A, reference)
+        if np.isfinite(x).all():
+            np.testing.assert_allclose(b, reference.dot(x), rtol=1e-12, atol=1e-12)

@@ -226,6 +226,9 @@ class WholeBodyIK:
         self.n_eq = 6 * len(kin.arms)
         self.solver_name = solver
         self._solvers: dict[tuple[int, int, int, int], QPSolver] = {}
+        #: Level 2's equality rows and right-hand side by (rows, free joints), compiled path.
+        self._equality: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self._compiled = jit.available()
         #: Per solver (by key): the layout whose problem its warm start belongs to.
         self._warm_for: dict[tuple[int, int, int, int], Layout] = {}
         #: The layouts of recent configurations, and the plans of recent task signatures.
@@ -326,6 +329,12 @@ class WholeBodyIK:
         self._plans[signature] = plan
         return plan
 
+    def _equality_buffers(self, p: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+        buffers = self._equality.get((p, n))
+        if buffers is None:
+            buffers = self._equality[(p, n)] = (np.zeros((p, n)), np.zeros(p))
+        return buffers
+
     def _cycle_at(
         self, q: np.ndarray, v_prev: np.ndarray, lb: np.ndarray, ub: np.ndarray
     ) -> CycleState:
@@ -383,22 +392,75 @@ class WholeBodyIK:
         iterations = self.solver.iterations
         if plan.level2 is not None:
             p = min(plan.m1, self.n_eq)
-            A = np.ascontiguousarray(plan.level1.jac[:p, layout.free])
+            if self._compiled:  # the equalities A x = A x1 in one call, into kept buffers
+                A, b = self._equality_buffers(p, layout.n)
+                _equalities(plan.level1.jac, layout.free_index, x, A, b)
+            else:
+                A = np.ascontiguousarray(plan.level1.jac[:p, layout.free])
+                b = A.dot(x)
             H2, g2 = plan.level2.cost(layout, moving)
             self.solver2 = solver2 = self.solver_for(2, p)
             C2, lo2, hi2 = layout.level2
-            x2 = solver2.solve(H2, g2, C2, lo2, hi2, lb, ub, A, A.dot(x))
+            x2 = solver2.solve(H2, g2, C2, lo2, hi2, lb, ub, A, b)
             if x2 is None:
                 message = "level 2 not solved: redundant axes held"
             else:
                 x = x2
                 iterations += solver2.iterations
-        if isinstance(layout.free, slice):  # x may be the solver's own buffer: not in place
-            np.minimum(np.maximum(x, lb), ub, out=v[layout.free])
+        if self._compiled:
+            finite = _clip_into(x, lb, ub, layout.free_index, v)
         else:
-            v[layout.free] = np.minimum(np.maximum(x, lb), ub)
-        if not math.isfinite(v.dot(v)):  # NaN limits (a NaN position) pass the clip
+            if isinstance(layout.free, slice):  # x may be the solver's own buffer
+                np.minimum(np.maximum(x, lb), ub, out=v[layout.free])
+            else:
+                v[layout.free] = np.minimum(np.maximum(x, lb), ub)
+            finite = math.isfinite(v.dot(v))
+        if not finite:  # NaN limits (a NaN position) pass the clip
             for solver in self._solvers.values():
                 solver.reset()  # no warm start from garbage
             return IKResult(np.zeros(kin.nv), False, "QP result not finite")
         return IKResult(v, True, message, iterations)
+
+
+@jit.jit
+def _equalities(
+    jac: np.ndarray, free: np.ndarray, x: np.ndarray, A: np.ndarray, b: np.ndarray
+) -> None:
+    """Level 2's equalities ``A x = b``: the first ``len(b)`` rows of level 1's ``jac``
+    over the ``free`` joints, and ``b = A x`` at level 1's minimiser ``x``."""
+    p, n = A.shape
+    for i in range(p):
+        total = 0.0
+        for k in range(n):
+            a = jac[i, free[k]]
+            A[i, k] = a
+            total += a * x[k]
+        b[i] = total
+
+
+@jit.jit
+def _clip_into(
+    x: np.ndarray, lb: np.ndarray, ub: np.ndarray, free: np.ndarray, v: np.ndarray
+) -> bool:
+    """``v[free] = min(max(x, lb), ub)`` (NaN in, NaN out, as NumPy's), and whether
+    ``v · v`` is finite (a NaN or an overflow anywhere in ``v``: not)."""
+    for k in range(free.shape[0]):
+        value, low, high = x[k], lb[k], ub[k]
+        if value != value or low != low or high != high:
+            value = math.nan
+        elif value < low:
+            value = low
+        elif value > high:
+            value = high
+        v[free[k]] = value
+    total = 0.0
+    for j in range(v.shape[0]):
+        total += v[j] * v[j]
+    return math.isfinite(total)
+
+
+if jit.available():  # compile (or load) at import, never in a control cycle
+    for _order in ("F", "C"):  # a stack's rows are Fortran-ordered
+        _jac = np.zeros((2, 3), order=_order)
+        _equalities(_jac, np.arange(3), np.zeros(3), np.zeros((1, 3)), np.zeros(1))
+    _clip_into(np.zeros(2), np.zeros(2), np.zeros(2), np.arange(2), np.zeros(3))
