@@ -152,13 +152,19 @@ def test_padding_reaches_the_kernel() -> None:
 
 
 def segment_box_brute_force(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> float:
-    """The least signed distance to the box along the segment, sampled densely."""
-    t = np.linspace(0.0, 1.0, 200_001)[:, None]
-    x = a + t * (b - a)
-    q = np.abs(x) - h
-    outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
-    inside = np.minimum(q.max(axis=1), 0.0)
-    return float((outside + inside).min())
+    """The least signed distance to the box along the segment, sampled: every 1/2000 of it,
+    then every 1e-6 of it between the neighbours of the least sample. The signed distance
+    to a convex set is convex, so along the segment its minimum lies there (was 200 001
+    samples everywhere, 5e-6 apart: 9-16 s for the 300 segments of the test below)."""
+
+    def sampled(t: np.ndarray) -> np.ndarray:
+        q = np.abs(a + t[:, None] * (b - a)) - h
+        return np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+
+    coarse = np.linspace(0.0, 1.0, 2001)
+    k = int(np.argmin(sampled(coarse)))
+    lo, hi = coarse[max(k - 1, 0)], coarse[min(k + 1, coarse.size - 1)]
+    return float(sampled(np.linspace(lo, hi, 1001)).min())
 
 
 def test_segment_box_minimum_is_exact() -> None:

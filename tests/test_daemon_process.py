@@ -238,14 +238,21 @@ def test_gateway_death_without_restarts_stops_the_daemon():
 
 def test_a_killed_gateway_is_restarted_in_place():
     """Issue 17.10: SIGKILL of the gateway: the loop stops the robot and starts a new gateway;
-    clients reconnect (to the new address when the port was chosen by the system)."""
-    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250")
+    clients reconnect (to the new address when the port was chosen by the system).
+
+    Also ``gateway_nice`` with real time off: the loop is an ordinary thread, the gateway
+    keeps the inherited value, and the log says so (was a daemon of its own in
+    test_the_gateway_process_runs_at_gateway_nice_with_its_heap_frozen)."""
+    mine = os.getpriority(os.PRIO_PROCESS, 0)
+    nice = f"gateway_nice={min(19, mine + 4)}"
+    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250", "--set", nice)
     try:
         address = d.wait_ready()
         channel, stub = _stub(address)
         assert stub.ServoOn(pb.ServoOnRequest(), timeout=30.0).return_id.id == 0
         channel.close()
         (gateway,) = _children(d.proc.pid)
+        assert _nice_values(gateway) == {mine}  # realtime.enabled false: not applied
         os.kill(gateway, signal.SIGKILL)
         new_address = d.wait_line(r"gateway restarted, listening on (\S+?)\"").group(1)
         assert d.proc.poll() is None
@@ -260,35 +267,7 @@ def test_a_killed_gateway_is_restarted_in_place():
     finally:
         d.kill()
     assert "stopping motion, restarting it" in d.log
-
-
-def _fifo_permitted() -> bool:
-    code = "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))"
-    return subprocess.run([sys.executable, "-c", code], capture_output=True).returncode == 0
-
-
-@pytest.mark.skipif(not _fifo_permitted(), reason="real time not permitted here")
-def test_a_restarted_gateway_is_not_real_time():
-    """With real time on, imotiond restarts a killed gateway from its supervising thread,
-    which runs at SCHED_FIFO 1: the new gateway inherited it in every thread (under client
-    load it would have starved every ordinary process). Now the helper threads carry
-    SCHED_RESET_ON_FORK, and the gateway would put an inherited policy back itself
-    (tests/test_gateway_scheduling.py): every thread of the new one is ordinary."""
-    d = Imotiond("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250")
-    try:
-        d.wait_ready()
-        (gateway,) = _children(d.proc.pid)
-        os.kill(gateway, signal.SIGKILL)
-        d.wait_line(r"gateway restarted, listening on")
-        (new_gateway,) = _children(d.proc.pid)
-        policies = {
-            os.sched_getscheduler(int(t.name)) for t in Path(f"/proc/{new_gateway}/task").iterdir()
-        }
-        d.proc.send_signal(signal.SIGTERM)
-        assert d.wait_exit() == 0, d.log
-    finally:
-        d.kill()
-    assert policies == {os.SCHED_OTHER}
+    assert "gateway_nice not applied: realtime.enabled is false" in d.log
 
 
 def test_the_early_gateway_is_the_one_configured_and_dies_with_a_failed_start(
@@ -442,37 +421,44 @@ def test_the_gateway_process_runs_at_gateway_nice_with_its_heap_frozen():
     """``gateway_nice``: every thread of the gateway child (gRPC's included, started after
     the value was set), and only the gateway, when real time is on (as root the loop is
     then SCHED_FIFO; otherwise it falls back with a warning and the gateway still gets its
-    value). With real time off the loop is an ordinary thread: the gateway keeps the
-    inherited value. A raised value here, which needs no privilege. Its heap is frozen once
-    started (no full collection of it while serving)."""
+    value). A raised value here, which needs no privilege. Its heap is frozen once started
+    (no full collection of it while serving). (Real time off, the inherited value: in
+    test_a_killed_gateway_is_restarted_in_place.)
+
+    Then, merged here to share the daemon (was test_a_restarted_gateway_is_not_real_time):
+    with real time on, imotiond restarts a killed gateway from its supervising thread,
+    which runs at SCHED_FIFO 1: the new gateway inherited it in every thread (under client
+    load it would have starved every ordinary process). Now the helper threads carry
+    SCHED_RESET_ON_FORK, and the gateway would put an inherited policy back itself
+    (tests/test_gateway_scheduling.py): every thread of the new one is ordinary, and it
+    runs at gateway_nice too. (Where real time is not permitted the loop falls back to an
+    ordinary thread and that holds trivially; the test used to be skipped there.)"""
     mine = os.getpriority(os.PRIO_PROCESS, 0)
     target = min(19, mine + 4)
     nice = f"gateway_nice={target}"
-    d = _run("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250", "--set", nice)
-    d2 = None
+    d = Imotiond("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250", "--set", nice)
     try:
-        d.wait_ready()
-        (gateway,) = _children(d.proc.pid)
-        assert _nice_values(gateway) == {mine}  # realtime.enabled false: not applied
-        d.proc.send_signal(signal.SIGTERM)
-        assert d.wait_exit() == 0, d.log
-        d2 = Imotiond("--hal", "ideal", "--listen", "127.0.0.1:0", "--rate", "250", "--set", nice)
-        address = d2.wait_ready()
+        address = d.wait_ready()
         channel, stub = _stub(address)
         assert stub.GetState(pb.GetStateRequest(), timeout=30.0).return_id.id == 0
         channel.close()
-        (gateway,) = _children(d2.proc.pid)
+        (gateway,) = _children(d.proc.pid)
         assert _nice_values(gateway) == {target}
-        assert os.getpriority(os.PRIO_PROCESS, d2.proc.pid) == mine  # the control process
-        d2.proc.send_signal(signal.SIGTERM)
-        assert d2.wait_exit() == 0, d2.log
+        assert os.getpriority(os.PRIO_PROCESS, d.proc.pid) == mine  # the control process
+        os.kill(gateway, signal.SIGKILL)
+        d.wait_line(r"gateway restarted, listening on")
+        (new_gateway,) = _children(d.proc.pid)
+        policies = {
+            os.sched_getscheduler(int(t.name)) for t in Path(f"/proc/{new_gateway}/task").iterdir()
+        }
+        assert _nice_values(new_gateway) == {target}
+        d.proc.send_signal(signal.SIGTERM)
+        assert d.wait_exit() == 0, d.log
     finally:
         d.kill()
-        if d2 is not None:
-            d2.kill()
-    assert "gateway_nice not applied: realtime.enabled is false" in d.log
-    assert "not in effect" not in d2.log  # permitted: no warning
-    assert re.search(r"proc=gateway .*msg=\"\d+ objects frozen out of the full garbage", d2.log)
+    assert policies == {os.SCHED_OTHER}
+    assert "not in effect" not in d.log  # permitted: no warning
+    assert re.search(r"proc=gateway .*msg=\"\d+ objects frozen out of the full garbage", d.log)
 
 
 def test_gateway_stops_when_imotiond_is_killed():

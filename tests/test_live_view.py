@@ -130,6 +130,24 @@ def test_assets_come_from_the_robot_directory_only(
     assert client.fetch_asset("http://example.com/x.stl") is None
 
 
+def test_a_subscribed_client_that_stopped_reading_closes_with_the_handshake(
+    served: tuple[TestDaemon, Observers],
+) -> None:
+    """Every channel at 50 Hz fills websockets' incoming buffer (16 frames) as soon as the
+    client stops reading; websockets then stops reading the socket. Closing used to miss the
+    server's end of the connection and wait out websockets' 10 s close timeout, at every
+    exit of ``imotion view --listen``."""
+    td, observers = served
+    assert observers.live_view is not None
+    with LiveViewClient(observers.live_view.url) as c:
+        c.subscribe()
+        c.next_message("/tf")
+        # websockets' own flag: the buffer is full and it stopped reading the socket
+        assert td.wait_for(lambda: c.ws.recv_messages.paused, timeout=10.0)
+    # websockets records its close timeout as the connection's exception
+    assert not isinstance(c.ws.connection_exc, TimeoutError), c.ws.connection_exc
+
+
 def _rotation(tf: list[dict], child: str) -> np.ndarray:
     t = next(t for t in tf if t["child_frame_id"] == child)["rotation"]
     return np.array([t.get(k, 0.0) for k in "xyzw"])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pinocchio as pin
@@ -13,7 +14,7 @@ from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
-from controller.motion.position_ik import POSITION_TOL
+from controller.motion.position_ik import POSITION_TOL, PositionIK
 from controller.motion.reachability import MAX_SAMPLES, SAMPLE_STEP, ReachabilityChecker
 from controller.vocabulary import RightLeft, UnitType
 from tests.support import kinematics
@@ -95,6 +96,50 @@ def test_target_far_out_of_reach_is_refused_with_the_distance_left():
 def test_target_far_out_of_reach_is_refused_with_no_redundant_axis_either():
     kin = at_home("smartpal5")
     assert_refused(check(kin, line_from_hand(kin, [1.5, 0.0, 0.0])))
+
+
+#: IK solves a refusal may take (SmartPal V, 1.5 m forward with elbow and waist free: 1413
+#: before past-the-jump samples were no longer split, about 270 after).
+REFUSAL_SOLVES = 500
+
+
+def count_solves(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Counts the position-level IK solves (a retry without the elbow counts as one)."""
+    count = [0]
+    solve = PositionIK.solve
+
+    def counted(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        count[0] += 1
+        return solve(self, *args, **kwargs)
+
+    monkeypatch.setattr(PositionIK, "solve", counted)
+    return count
+
+
+def test_a_line_leaving_the_reach_is_refused_where_it_does_in_few_solves(monkeypatch):
+    """The line leaves the reach half-way, where the stretched arm's IK swings r_arm_j4 by
+    13 deg at every sample: the pass is refused from its first jump on, so the samples
+    past it are not split (up to 63 solves each). The refusal says where, as a share of the
+    path and in mm."""
+    kin = at_home("smartpal5")
+    solves = count_solves(monkeypatch)
+    reason = check(kin, line_from_hand(kin, [1.5, 0.0, 0.0]), {**ELBOW, **WAIST})
+    assert_refused(reason)
+    assert solves[0] <= REFUSAL_SOLVES
+    assert re.match(r"the path at (\d+) % \((\d+) of 1500 mm\) is not reachable: ", reason), reason
+    share, along = (int(x) for x in re.findall(r"\d+", reason)[:2])
+    assert 30 <= share <= 70 and abs(along - 15 * share) <= 15
+    # The reachable part of that line still is.
+    assert check(kin, line_from_hand(kin, [0.3, 0.0, 0.0]), {**ELBOW, **WAIST}) is None
+
+
+def test_a_turn_in_place_is_refused_with_the_angle_along_it():
+    kin = at_home("smartpal5")
+    kin.set_control_point_offset(RIGHT, pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.5])))
+    kin.update(kin.q)
+    reason = check(kin, line_from_hand(kin, [0, 0, 0], [math.radians(-40.0), 0.0, 0.0]), ELBOW)
+    assert_refused(reason)
+    assert re.match(r"the (target|path at \d+ % \(\d+ of 40 deg\)) ", reason), reason
 
 
 @pytest.mark.parametrize("allowed", [{}, {**ELBOW, **WAIST}], ids=["held", "elbow+waist"])

@@ -9,7 +9,6 @@ import os
 import signal
 from collections.abc import Iterator
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -62,16 +61,30 @@ def stop_daemon(daemon: Imotiond) -> None:
         daemon.kill()
 
 
-@pytest.fixture
-def running(tmp_path: Path) -> Iterator[Running]:
-    naming = rs.NamingService(tmp_path)
+@pytest.fixture(scope="module")
+def shared(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Running]:
+    """One naming service and one daemon for the module (each took 5-8 s to start)."""
+    naming = rs.NamingService(tmp_path_factory.mktemp("rtc-daemon"))
     run = Running(naming, start_daemon(naming))
     try:
-        rs.wait_for(run.component, what="the component's registration")
         yield run
     finally:
-        stop_daemon(run.daemon)  # the test may have restarted it
+        stop_daemon(run.daemon)  # a test may have restarted it
         naming.stop()
+
+
+@pytest.fixture
+def running(shared: Running) -> Running:
+    """The module's daemon, running and registered: restarted if a test left it stopped
+    (the tests restart the naming service, the gateway and the daemon and leave them
+    running; a failed one may not have)."""
+    if shared.naming.proc is None or shared.naming.proc.poll() is not None:
+        shared.naming.start(shared.naming.port)  # where the daemon looks for it
+    if shared.daemon.proc.poll() is not None:
+        shared.daemon.kill()
+        shared.daemon = start_daemon(shared.naming)
+    rs.wait_for(shared.component, what="the component's registration")
+    return shared
 
 
 def test_rtls_and_rtcat_list_the_component_and_its_ports(running: Running) -> None:

@@ -689,8 +689,9 @@ def main() -> int:
         log(f"wrote {out / 'session.mcap'} and {', '.join(p.name for p in plots)}")
         n_frames = 0
         if not args.no_frames:
-            every = 1.0 if args.quick else 0.5
-            size = (480, 360) if args.quick else (640, 480)
+            # --quick (the test): a frame per 2.5 s (~8 for its ~18 s), each ~0.4 s to render
+            every = 2.5 if args.quick else 0.5
+            size = (320, 240) if args.quick else (640, 480)
             n_frames = write_frames(out, samples, session.phases, every, size)
             log(f"wrote {n_frames} frames to {out / 'frames'} and {out / 'frames.png'}")
         result.update(

@@ -12,12 +12,14 @@ from __future__ import annotations
 import base64
 import json
 import struct
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from google.protobuf import descriptor_pb2, descriptor_pool, json_format, message_factory
+from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 from websockets.typing import Subprotocol
 
@@ -177,7 +179,20 @@ class LiveViewClient:
         return reply[4] if reply[2] == 0 else None
 
     def close(self) -> None:
-        self.ws.close()
+        """Closes the connection, reading what still comes until the server's close frame.
+
+        A subscribed connection that is not read fills websockets' incoming buffer within
+        a fraction of a second (every channel at the view rate); websockets then stops
+        reading the socket, so a plain ``close()`` never saw the server's close frame and
+        waited out its close timeout: 10 s on every exit of ``imotion view --listen``."""
+        closer = threading.Thread(target=self.ws.close, name="live-view-close", daemon=True)
+        closer.start()
+        try:
+            while True:  # ends with the close handshake (or websockets' close timeout)
+                self.ws.recv()
+        except ConnectionClosed:
+            pass
+        closer.join()
 
     def __enter__(self) -> LiveViewClient:
         return self

@@ -21,6 +21,12 @@ of the zones next to the joint limits, joints near a limit weighed up. Where a j
 more than JUMP_ANGLE between samples the interval is halved; a step that stays that large
 down to MAX_SPLITS halvings is a change of IK branch, and the path is checked again with the
 posture passing through the far side of it (ANCHORS times), then refused naming the joint.
+A pass cannot be run past its first jump: from there on its samples are not split, and
+whatever refuses it (a pose out of reach, a singularity) is checked again the same way.
+Splitting there cost up to 63 solves per sample where a stretched arm's IK alternates
+between two branches: SmartPal V refused a line 0.8 m forward (elbow and waist free) after
+1571 IK solves, about 10 s on a loaded 2-core machine; 275 now. A refusal says where, as a
+share of the path and in mm (deg for a turn in place).
 The recorded joint path (:attr:`ReachabilityChecker.path_q`) goes with the motion and the
 loop's null space follows it, so the loop runs the checked motion and ends where the check
 did. (Before: minimum-norm steps here, a posture drawn to the start in the loop: SmartPal
@@ -32,6 +38,7 @@ Runs on its own :class:`~controller.model.kinematics.Kinematics` (the loop owns 
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 
@@ -149,6 +156,8 @@ class ReachabilityChecker:
             )
             if jump is None or attempt == ANCHORS:
                 return why
+            # A pass that jumped is never run; past its first jump it was followed without
+            # splitting (:meth:`_follow`), so whatever it found there is checked again too.
             # A change of branch where the posture's nearest configuration swings over:
             # again, with the posture passing through the far side of the swing, so the
             # null-space motion starts early and the path stays continuous.
@@ -173,8 +182,9 @@ class ReachabilityChecker:
     ) -> tuple[str | None, tuple[float, np.ndarray] | None]:
         """One pass of :meth:`check` from ``q`` along ``samples`` of ``path``, the null space
         drawn to the posture through ``anchors`` (path parameter, configuration; linear in
-        between). Returns why the path is refused (None: it is not) and, when the reason is
-        a jump between branches, the path parameter and configuration after the first one."""
+        between). Returns why the path is refused (None: it is not) and, when the pass
+        jumped between branches, the path parameter and configuration after the first jump
+        (whatever refused the pass: past that jump it was followed without splitting)."""
         self.last_q = q
         self.path_s = [float(samples[0])]
         self.path_q = [q.copy()]
@@ -199,15 +209,21 @@ class ReachabilityChecker:
 
         s_prev = float(samples[0])
         for s_next in samples[1:]:
-            for s, q_s, err in self._segment(q, s_prev, float(s_next), solve):
+            # Past the first jump the pass cannot be run as it is (it is checked again with
+            # an anchor, or refused): its samples are no longer split. Splitting there only
+            # sampled a path never run, at up to 2**(MAX_SPLITS+1) - 1 solves per sample
+            # where the IK alternates between two branches (SmartPal V reaching 1.5 m
+            # forward: r_arm_j4 swinging 13 deg at every split, 1398 solves to refuse).
+            splits = MAX_SPLITS if jumped is None else 0
+            for s, q_s, err in self._segment(q, s_prev, float(s_next), solve, splits):
                 jump = self._jump(q, q_s)
                 q = q_s
                 self.last_q = q
                 self.path_s.append(s)
                 self.path_q.append(q.copy())
-                where = "the target" if s >= 1.0 else f"the path at {100 * s:.0f} %"
+                where = _where(path, s)
                 if err is not None:
-                    return f"{where} is not reachable: {err}", None
+                    return f"{where} is not reachable: {err}", _anchor(jumped)
                 if jump is not None and jumped is None:
                     name, shown = jump
                     jumped = (
@@ -219,7 +235,7 @@ class ReachabilityChecker:
                         q.copy(),
                     )
             s_prev = float(s_next)
-            where = "the target" if s_prev >= 1.0 else f"the path at {100 * s_prev:.0f} %"
+            where = _where(path, s_prev)
             if near is None:
                 # Without redundancy any free joint counts, else the moving arm's own.
                 watched = ~setup.frozen if rigid else self._arm_mask(side)
@@ -232,9 +248,9 @@ class ReachabilityChecker:
                     f"{where} is too close to a singular configuration (smallest singular "
                     f"value {sigma:.3f} m/rad, need {MIN_SINGULAR}): it could not be followed "
                     "at speed; allow more redundant axes or choose another target"
-                ), None
+                ), _anchor(jumped)
         if jumped is not None:
-            return jumped[0], (jumped[1], jumped[2])
+            return jumped[0], _anchor(jumped)
         if near is not None:
             where, name, gap = near
             return (
@@ -250,21 +266,24 @@ class ReachabilityChecker:
         s0: float,
         s1: float,
         solve: Callable[[np.ndarray, float], tuple[np.ndarray, str | None]],
-        depth: int = 0,
+        splits: int = MAX_SPLITS,
     ) -> list[tuple[float, np.ndarray, str | None]]:
         """The samples ``(s, q, why not)`` from ``s0`` (solved: ``q``) to ``s1``: one, or
-        halves (up to MAX_SPLITS times) while a joint moves more than the jump bound between
+        halves (up to ``splits`` times) while a joint moves more than the jump bound between
         them, so a continuous joint path is sampled densely where it is fast and a jump left
-        at the finest split is a change of branch (:meth:`_jump`)."""
+        at the finest split is a change of branch (:meth:`_jump`). Past such a jump the
+        rest is not split (see :meth:`_follow`)."""
         q1, err = solve(q, s1)
-        if depth >= MAX_SPLITS or (err is None and self._jump(q, q1) is None):
+        if splits <= 0 or (err is None and self._jump(q, q1) is None):
             return [(s1, q1, err)]
         mid = 0.5 * (s0 + s1)
-        first = self._segment(q, s0, mid, solve, depth + 1)
+        first = self._segment(q, s0, mid, solve, splits - 1)
         _, q_mid, err_mid = first[-1]
         if err_mid is not None:
             return first
-        return first + self._segment(q_mid, mid, s1, solve, depth + 1)
+        qs = [q, *(piece[1] for piece in first)]
+        jumped = any(self._jump(a, b) is not None for a, b in itertools.pairwise(qs))
+        return first + self._segment(q_mid, mid, s1, solve, 0 if jumped else splits - 1)
 
     def _predict(self, q: np.ndarray, s: float) -> np.ndarray:
         """Where the IK starts for the sample at ``s`` from ``q``: ``q`` moved on along the
@@ -410,6 +429,25 @@ class ReachabilityChecker:
         kin.update(q)
         self.rows.configure(kin, setup.allowed, setup.ranges, setup.frozen)
         return q, (kin.pose(hold) if hold is not None else None)
+
+
+def _where(path: LinePath | ArcPath, s: float) -> str:
+    """Where ``s`` is on ``path`` for a refusal: the target, or the share of the path and how
+    far along it that is [mm] (or [deg] for a turn in place)."""
+    if s >= 1.0:
+        return "the target"
+    if path.length > 0.0:
+        along = f"{1e3 * s * path.length:.0f} of {1e3 * path.length:.0f} mm"
+    else:
+        along = f"{math.degrees(s * path.angle):.0f} of {math.degrees(path.angle):.0f} deg"
+    return f"the path at {100 * s:.0f} % ({along})"
+
+
+def _anchor(
+    jumped: tuple[str, float, np.ndarray] | None,
+) -> tuple[float, np.ndarray] | None:
+    """The path parameter and configuration after a pass's first jump, if it jumped."""
+    return None if jumped is None else (jumped[1], jumped[2])
 
 
 def _too_long(path: LinePath | ArcPath, step: float, angle_step: float) -> str | None:
