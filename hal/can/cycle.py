@@ -27,18 +27,24 @@ Used by the backend (:mod:`hal.can.backend`, all drives) and by ``imotion-can`` 
 
 from __future__ import annotations
 
+import logging
 import select
+import time
 from collections.abc import Callable, Sequence
 
 import can
 import numpy as np
 
-from hal.can import pdo
+from controller.model import jit
+from hal.can import kernels, pdo
 from hal.can.busload import classic_frame_bits
 from hal.can.cia402 import DriveMaster, Goal, State, decode
 from hal.can.ports import FrameReader, Port
 from hal.can.supervision import Supervisor
+from hal.can.unix_wire import HEADER, message
 from hal.interface import HardwareFault
+
+log = logging.getLogger(__name__)
 
 #: Worst-case classic frame length [bit] per data length (0..8 bytes).
 FRAME_BITS = [classic_frame_bits(n) for n in range(9)]
@@ -50,6 +56,55 @@ BUS_ERRORS = (can.CanError, OSError, ValueError)
 _TPDO1, _TPDO2, _HEARTBEAT = pdo.Kind.TPDO1, pdo.Kind.TPDO2, pdo.Kind.HEARTBEAT
 _RPDO_BITS, _SYNC_BITS, _HB_BITS = FRAME_BITS[6], FRAME_BITS[0], FRAME_BITS[1]
 _FAULTED = (State.FAULT, State.FAULT_REACTION_ACTIVE)
+_FRAME_BITS = np.array(FRAME_BITS, dtype=np.int64)
+_KIND_CODE = {
+    pdo.Kind.TPDO1: kernels.K_TPDO1,
+    pdo.Kind.TPDO2: kernels.K_TPDO2,
+    pdo.Kind.HEARTBEAT: kernels.K_HEARTBEAT,
+    pdo.Kind.EMCY: kernels.K_EMCY,
+}
+#: A ``unix`` wire frame of an RPDO1 [bytes]: header and 6 data bytes.
+_RPDO_WIRE = HEADER.size + 6
+
+
+class RecordBuses:
+    """The buses that take and give whole ``unix`` records (``recv_records`` and
+    ``send_record``: :class:`hal.can.unix_bus.UnixBus`), for the compiled path: per bus the
+    COB-ID tables of :func:`hal.can.kernels.decode_record` and its frame counters, and for
+    all of them at once the buffer, frame headers and bounds that
+    :func:`hal.can.kernels.encode_records` fills."""
+
+    def __init__(self, ports: Sequence[Port], node_ids: Sequence[int]):
+        self.ports = list(ports)
+        n = len(self.ports)
+        self.kinds = np.zeros((n, 2048), dtype=np.int64)
+        self.drives = np.zeros((n, 2048), dtype=np.int64)
+        #: Frames and worst-case bits decoded per bus in one receive.
+        self.counts = np.zeros((n, 2), dtype=np.int64)
+        rows, heads, order = [0], [], []
+        for p, port in enumerate(self.ports):
+            for cob_id, (kind, i) in port.table.items():
+                if cob_id < 2048 and kind in _KIND_CODE:
+                    self.kinds[p, cob_id] = _KIND_CODE[kind]
+                    self.drives[p, cob_id] = i
+            for i in port.drives:
+                heads.append(HEADER.pack(pdo.RPDO1 + node_ids[i], 0, 6, 6, 0.0)[:8])
+                order.append(i)
+            heads.append(HEADER.pack(pdo.SYNC, 0, 0, 0, 0.0)[:8])
+            order.append(-1)
+            rows.append(len(order))
+        #: Per bus and row: the first 8 bytes of each frame's header; its drive (−1: SYNC).
+        self.header = np.frombuffer(b"".join(heads), dtype=np.uint8).reshape(-1, 8).copy()
+        self.order = np.array(order, dtype=np.int64)
+        self.rows = np.array(rows, dtype=np.int64)
+        self.out = np.zeros(_RPDO_WIRE * len(order), dtype=np.uint8)
+        self.view = memoryview(self.out)  # type: ignore[arg-type]
+        self.bounds = np.zeros((n, 2), dtype=np.int64)
+        #: ``(port, kinds, drives, counts)`` per bus (the row views made once).
+        self.tables = [
+            (port, self.kinds[p], self.drives[p], self.counts[p])
+            for p, port in enumerate(self.ports)
+        ]
 
 
 class CycleIO:
@@ -68,7 +123,6 @@ class CycleIO:
         heartbeat_period: float,
     ):
         n = len(node_ids)
-        self.ports = list(ports)
         self.node_ids = list(node_ids)
         self.supervisor = supervisor
         self.on_fault = on_fault
@@ -77,12 +131,28 @@ class CycleIO:
         self.heartbeat_period = heartbeat_period
         self.masters = [DriveMaster() for _ in range(n)]
         #: Last statusword and position actual [counts] of every drive.
-        self.statusword = [0] * n
-        self.position = [0] * n
+        self.statusword = np.zeros(n, dtype=np.int64)
+        self.position = np.zeros(n, dtype=np.int64)
         #: Last velocity actual [counts/s] (TPDO2 drives only).
-        self.velocity = [0] * n
+        self.velocity = np.zeros(n, dtype=np.int64)
         #: Target position [counts] of the next RPDO1 of every drive.
-        self.target = [0] * n
+        self.target = np.zeros(n, dtype=np.int64)
+        # The same as memoryviews: Python ints in and out per frame (no NumPy scalars).
+        self._sw, self._pos = memoryview(self.statusword), memoryview(self.position)  # type: ignore[arg-type]
+        self._vel, self._tgt = memoryview(self.velocity), memoryview(self.target)  # type: ignore[arg-type]
+        #: Controlword of the next RPDO1 of every drive, computed again only when a
+        #: statusword, a drive seen or a goal changed (:meth:`controlwords`).
+        self.controlword = np.zeros(n, dtype=np.int64)
+        self._cw = memoryview(self.controlword)  # type: ignore[arg-type]
+        self._cw_key = b""
+        self._cw_dirty = True
+        #: Whole records on buses that take them (:class:`RecordCodec`), compiled kernels.
+        self.compiled = jit.available()
+        self._records: RecordBuses | None = None
+        self._frame_ports: list[Port] = []
+        self._partial: dict[int, Port] = {}
+        self._stamp = np.zeros(1)
+        self._stamp_bytes = self._stamp.view(np.uint8)
         self._fresh = bytearray(n)
         self._seen = bytearray(n)
         #: A TPDO1 came in since the last :meth:`clear_fresh` (a view of a byte buffer).
@@ -94,20 +164,56 @@ class CycleIO:
         self.all_enabled = False
         self.any_faulted = False
         self._decoded: list[int | None] = [None] * n
+        self._state_key = b""
         self._rpdo = [
             can.Message(arbitration_id=pdo.RPDO1 + nid, data=bytearray(6), is_extended_id=False)
             for nid in self.node_ids
         ]
         self.last_heartbeat_sent = -float("inf")
+        self.ports = list(ports)
+
+    @property
+    def ports(self) -> list[Port]:
+        """The buses (set when they open or close)."""
+        return self._ports
+
+    @ports.setter
+    def ports(self, ports: list[Port]) -> None:
+        self._ports = ports
+        records = [p for p in ports if p.recv_records is not None and p.send_record is not None]
+        self._records = RecordBuses(records, self.node_ids) if records and self.compiled else None
+        taken = self._records.ports if self._records is not None else []
+        #: Buses read and written frame by frame.
+        self._frame_ports = [p for p in ports if p not in taken]
+        #: Buses read one record per peer at a time, by descriptor (:meth:`_drain_ready`).
+        self._partial = {
+            p.fd: p for p in ports if p.fd is not None and (p.recv_frames is not None or p in taken)
+        }
+
+    def controlwords(self) -> np.ndarray:
+        """Every drive's controlword for this cycle (:class:`DriveMaster` of each drive seen,
+        asked again only when a statusword, a drive seen or a goal changed, and every cycle
+        while a drive resets a fault: the same words as asking every cycle)."""
+        key = self.statusword.tobytes() + bytes(self._seen)
+        if key != self._cw_key or self._cw_dirty:
+            self._cw_key = key
+            sw, cw, seen = self._sw, self._cw, self._seen
+            for i, m in enumerate(self.masters):
+                if seen[i]:
+                    cw[i] = m.controlword(sw[i])
+            self._cw_dirty = any(m.goal is Goal.RESET for m in self.masters)
+        return self.controlword
 
     # ------------------------------------------------------------------------------ send
     def send(self) -> None:
-        """RPDO1 of every drive seen (controlword, :attr:`target`), then SYNC, per bus."""
-        seen, masters, sw, target, rpdo = (
-            self._seen, self.masters, self.statusword, self.target, self._rpdo
-        )  # fmt: skip
+        """RPDO1 of every drive seen (controlword, :attr:`target`), then SYNC, per bus: one
+        record per bus where it takes them (compiled), else frame by frame."""
+        seen, cw, target, rpdo = self._seen, self._cw, self._tgt, self._rpdo
+        self.controlwords()
+        if self._records is not None:
+            self._send_records(self._records)
         pack = pdo.RPDO1_STRUCT.pack_into
-        for port in self.ports:
+        for port in self._frame_ports:
             if port.failed:
                 continue
             send, timeout = port.bus.send, port.send_timeout
@@ -117,7 +223,7 @@ class CycleIO:
                 for i in port.drives:
                     if seen[i]:
                         msg = rpdo[i]
-                        pack(msg.data, 0, masters[i].controlword(sw[i]), target[i])
+                        pack(msg.data, 0, cw[i], target[i])
                         send(msg, timeout)
                         rpdos += 1
                 msg = port.sync
@@ -130,6 +236,29 @@ class CycleIO:
                 port.bits += _SYNC_BITS
             port.frames_sent += rpdos
             port.bits += rpdos * _RPDO_BITS
+
+    def _send_records(self, buses: RecordBuses) -> None:
+        """:meth:`send` of the record buses: every bus's record encoded in one call
+        (:func:`hal.can.kernels.encode_records`), then one ``send_record`` per bus."""
+        self._stamp[0] = time.time()
+        kernels.encode_records(
+            buses.out, buses.header, self._stamp_bytes, buses.rows, buses.order, self.seen,
+            self.controlword, self.target, buses.bounds,
+        )  # fmt: skip
+        view = buses.view
+        for port, (start, end) in zip(buses.ports, buses.bounds.tolist(), strict=True):
+            if port.failed:
+                continue
+            rpdos = (end - start - HEADER.size) // _RPDO_WIRE
+            try:
+                port.send_record(view[start:end])  # type: ignore[misc]
+            except BUS_ERRORS as exc:
+                first = next((i for i in port.drives if self._seen[i]), None)
+                self._send_failed(port, port.sync if first is None else self._rpdo[first], exc)
+                continue
+            port.syncs_sent += 1
+            port.frames_sent += rpdos + 1
+            port.bits += _SYNC_BITS + rpdos * _RPDO_BITS
 
     def send_heartbeat(self, now: float, force: bool = False) -> None:
         """The master heartbeat on every bus, if ``force`` or one period passed."""
@@ -166,7 +295,9 @@ class CycleIO:
         wait until then for the TPDO1 of every drive not fresh yet: one ``select`` over the
         buses that have a file descriptor (:attr:`Port.fd`), ``recv(timeout)`` bus after bus
         on the others."""
-        for port in self.ports:
+        if self._records is not None:
+            self._drain_records(self._records.tables)
+        for port in self._frame_ports:
             self._drain(port)
         self._drain_ready()
         if deadline is None or 0 not in self._fresh:  # (bytes: cheaper than numpy here)
@@ -194,22 +325,27 @@ class CycleIO:
         self._drain_ready()
 
     def _drain_ready(self) -> None:
-        """Buses read one record per peer at a time (:attr:`Port.recv_frames` with a
-        descriptor): read on while ``select`` finds any of them readable (one system call
-        for all the buses when nothing more waits, the usual case) and a round brings
+        """Buses read one record per peer at a time (:attr:`Port.recv_frames` or records,
+        with a descriptor): read on while ``select`` finds any of them readable (one system
+        call for all the buses when nothing more waits, the usual case) and a round brings
         frames (a descriptor that stays readable with nothing to read, e.g. a connection the
         bus cannot accept, ends it: the next cycle tries again)."""
-        partial = {
-            p.fd: p
-            for p in self.ports
-            if p.recv_frames is not None and p.fd is not None and not p.failed
-        }
-        while partial:
+        partial = self._partial
+        if not partial:
+            return
+        for port in partial.values():  # (a loop: cheaper than any() on a generator)
+            if port.failed:
+                partial = {fd: p for fd, p in partial.items() if not p.failed}
+                break
+        fds = list(partial)
+        while fds:
             try:
-                ready = select.select(list(partial), [], [], 0.0)[0]
+                ready = select.select(fds, [], [], 0.0)[0]
             except (OSError, ValueError) as exc:
                 for port in partial.values():
                     self._receive_failed(port, exc)
+                return
+            if not ready:
                 return
             before = sum(partial[fd].frames_received for fd in ready)
             for fd in ready:
@@ -242,13 +378,16 @@ class CycleIO:
         """Decode the frames waiting on ``port`` (no wait): all of them, but on a bus read
         one record per peer at a time (:meth:`_drain_frames`), where
         :meth:`_drain_ready` reads the rest."""
+        if self._records is not None and port in self._records.ports:
+            self._drain_records([t for t in self._records.tables if t[0] is port])
+            return
         reader = port.recv_frames
         if reader is not None:
             self._drain_frames(port, reader)
             return
         poll, table = port.poll, port.table
-        fresh, seen, sw, position = self._fresh, self._seen, self.statusword, self.position
-        velocity = self.velocity
+        fresh, seen, sw, position = self._fresh, self._seen, self._sw, self._pos
+        velocity = self._vel
         tpdo1, tpdo2 = pdo.TPDO1_STRUCT.unpack_from, pdo.TPDO2_STRUCT.unpack_from
         frames = bits = 0
         try:
@@ -287,7 +426,7 @@ class CycleIO:
         for msg in others:  # read by recv() before, or not classic data frames
             self._decode(port, msg)
         table, fresh, seen = port.table, self._fresh, self._seen
-        sw, position, velocity = self.statusword, self.position, self.velocity
+        sw, position, velocity = self._sw, self._pos, self._vel
         tpdo1, tpdo2 = pdo.TPDO1_STRUCT.unpack_from, pdo.TPDO2_STRUCT.unpack_from
         bits = 0
         for can_id, data in classic:
@@ -308,6 +447,70 @@ class CycleIO:
                 self._decode_data(kind, i, data)
         port.frames_received += len(classic)
         port.bits += bits
+
+    def _drain_records(self, tables: list[tuple[Port, np.ndarray, np.ndarray, np.ndarray]]) -> None:
+        """:meth:`_drain` of the record buses ``tables`` (:attr:`RecordBuses.tables`): each
+        record (one per peer) decoded by :func:`hal.can.kernels.decode_record` into the
+        feedback arrays; the frames it leaves (EMCY, heartbeats other than OPERATIONAL,
+        frames with flags) in Python, in their place in the record."""
+        now = self.clock()
+        decode_record, bits, last_heartbeat = (
+            kernels.decode_record, _FRAME_BITS, self.supervisor.last_heartbeat
+        )  # fmt: skip
+        sw, position, velocity, fresh, seen = (
+            self.statusword, self.position, self.velocity, self.fresh, self.seen
+        )  # fmt: skip
+        decoded = []
+        for port, kinds, drives, counts in tables:
+            try:
+                records, others = port.recv_records(port.fd is None)  # type: ignore[misc]
+            except BUS_ERRORS as exc:
+                self._receive_failed(port, exc)
+                continue
+            for msg in others:  # read by recv() before
+                self._decode(port, msg)
+            if not records:
+                continue
+            decoded.append((port, counts))
+            for record in records:
+                size = len(record)
+                start = decode_record(record, 0, kinds, drives, bits, sw, position, velocity,
+                                      fresh, seen, now, last_heartbeat, counts)  # fmt: skip
+                while start < size:
+                    start = self._record_frame(port, record, start)
+                    if start < size:
+                        start = decode_record(record, start, kinds, drives, bits, sw, position,
+                                              velocity, fresh, seen, now, last_heartbeat,
+                                              counts)  # fmt: skip
+        for port, counts in decoded:
+            frames, length = counts.tolist()
+            port.frames_received += frames
+            port.bits += length
+        if decoded and self._records is not None:
+            self._records.counts.fill(0)
+
+    def _record_frame(self, port: Port, record: bytes, start: int) -> int:
+        """Decode the frame of ``record`` at byte ``start`` that the kernel left; the start
+        of the next one (the record's end if it is cut: logged, the rest dropped)."""
+        size = len(record)
+        end = start + HEADER.size
+        if end <= size:
+            can_id, flags, dlc, length, stamp = HEADER.unpack_from(record, start)
+            end += length
+        if end > size:
+            log.warning("bus %s: record of %d bytes cut at byte %d (dropped)",
+                        port.name, size, start)  # fmt: skip
+            return size
+        data = record[start + HEADER.size : end]
+        if flags:
+            self._decode(port, message(can_id, flags, dlc, stamp, data, port.name))
+            return end
+        port.frames_received += 1
+        port.bits += FRAME_BITS[length if length < 9 else 8]
+        entry = port.table.get(can_id)
+        if entry is not None:
+            self._decode_data(entry[0], entry[1], data)
+        return end
 
     def _receive_failed(self, port: Port, exc: BaseException) -> None:
         if not port.failed:
@@ -332,11 +535,11 @@ class CycleIO:
         """Decode the data of one frame of ``kind`` from drive ``i`` (counted already)."""
         if kind is _TPDO1:
             if len(data) >= 6:
-                self.statusword[i], self.position[i] = pdo.TPDO1_STRUCT.unpack_from(data)
+                self._sw[i], self._pos[i] = pdo.TPDO1_STRUCT.unpack_from(data)
                 self._fresh[i] = self._seen[i] = 1
         elif kind is _TPDO2:
             if len(data) >= 4:
-                (self.velocity[i],) = pdo.TPDO2_STRUCT.unpack_from(data)
+                (self._vel[i],) = pdo.TPDO2_STRUCT.unpack_from(data)
         elif kind is _HEARTBEAT:
             if len(data) >= 1:
                 sup = self.supervisor
@@ -356,7 +559,11 @@ class CycleIO:
     def decode_states(self) -> None:
         """CiA 402 state of every drive seen (decoded again only where the statusword
         changed); sets :attr:`all_enabled` and :attr:`any_faulted`."""
-        sw, decoded, states, seen = self.statusword, self._decoded, self.states, self._seen
+        key = self.statusword.tobytes() + bytes(self._seen)
+        if key == self._state_key:
+            return
+        self._state_key = key
+        sw, decoded, states, seen = self._sw, self._decoded, self.states, self._seen
         changed = False
         for i, word in enumerate(sw):
             if word != decoded[i] and seen[i]:
@@ -372,6 +579,7 @@ class CycleIO:
         for m in self.masters:
             if not (keep_reset and m.goal is Goal.RESET):
                 m.goal = goal
+        self._cw_dirty = True
 
     def hold_targets(self) -> None:
         """Target := actual [counts] for every drive (exact, wheels wrap as the drive does)."""
