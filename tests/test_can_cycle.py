@@ -364,21 +364,3 @@ def test_records_decode_and_encode_as_the_frames_do():
     for record in records:
         frames += [(cob, bytes(data)) for cob, _, _, _, data in unix_frames(record)]
     assert frames == sent
-
-
-@pytest.mark.skipif(not jit.available(), reason="numba not installed or IMOTION_JIT=0")
-def test_a_cut_record_keeps_its_whole_frames_and_a_failed_record_send_faults(caplog):
-    rig = RecordRig()
-    whole = encode(can.Message(arbitration_id=0x184, data=pdo.TPDO1_STRUCT.pack(0x40, 9)))
-    rig.bus._records.append(whole + whole[:10])
-    rig.io.receive()
-    assert rig.io.position.tolist() == [0, 9, 0] and "cut at byte 22" in caplog.text
-    assert rig.port.frames_received == 1
-
-    def broken(record: bytes | memoryview) -> None:
-        raise can.CanOperationError("tx queue full")
-
-    rig.port.send_record = broken
-    rig.io.send()
-    assert rig.port.failed and "send of 0x204 failed: tx queue full" in rig.faults[0].description
-    assert rig.port.syncs_sent == 0

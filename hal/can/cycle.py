@@ -5,106 +5,53 @@ counts as the drives send it, the CiA 402 master of its power state machine and 
 preallocated RPDO1 frame. One cycle:
 
 1. :meth:`CycleIO.send`: per bus, every drive's RPDO1 (controlword of its
-   :class:`~hal.can.cia402.DriveMaster`, target position [counts]) packed into its frame with
-   a precompiled struct, then one SYNC. No RPDO goes to a drive before its first TPDO1.
+   :class:`~hal.can.cia402.DriveMaster`, asked again only when something changed:
+   :meth:`CycleIO.controlwords`; target position [counts]) packed into its frame with a
+   precompiled struct, then one SYNC. No RPDO goes to a drive before its first TPDO1.
 2. :meth:`CycleIO.send_heartbeat`: the master's heartbeat on every bus when due.
 3. :meth:`CycleIO.receive`: drain every bus without blocking and decode TPDO1 (statusword,
    position), TPDO2 (velocity), heartbeats and EMCY; optionally wait until a deadline for
-   the TPDO1 of every drive. A bus that offers it (:attr:`Port.recv_frames`: ``unix``) is
-   read without a :class:`can.Message` per classic frame, one record per peer at a time,
-   and one ``select`` over all such buses finds what is left; the others through
-   python-can's API (SocketCAN). Heartbeats and EMCY go to the
+   the TPDO1 of every drive. Buses that take whole records (``unix``) are read and written
+   by :class:`hal.can.records.RecordIO` (compiled: one call per record, one encode for
+   every bus) where :func:`controller.model.jit.available`, else, where a bus offers it
+   (:attr:`Port.recv_frames`), without a :class:`can.Message` per classic frame; one
+   record per peer at a time, and one ``select`` over all such buses finds what is left;
+   the others through python-can's API (SocketCAN). Heartbeats and EMCY go to the
    :class:`~hal.can.supervision.Supervisor`; its faults and failed sends/receives go to
    ``on_fault`` at once (the backend quick-stops every drive).
 4. :meth:`CycleIO.decode_states`: each drive's CiA 402 state (only where the statusword
    changed) and summary flags for the per-cycle checks.
 
 The hot path allocates nothing per frame but python-can's own messages (on ``unix`` buses
-an ``(identifier, data)`` tuple instead): feedback lives in
-lists and in byte buffers that numpy views without copying (:attr:`fresh`, :attr:`seen`).
+nothing, or an ``(identifier, data)`` tuple without numba): feedback lives in int64 arrays
+(:attr:`CycleIO.statusword`, ...; memoryviews of them for the frame-by-frame path) and in
+byte buffers that numpy views without copying (:attr:`fresh`, :attr:`seen`).
 Used by the backend (:mod:`hal.can.backend`, all drives) and by ``imotion-can`` (one drive).
 """
 
 from __future__ import annotations
 
-import logging
 import select
-import time
 from collections.abc import Callable, Sequence
 
 import can
 import numpy as np
 
 from controller.model import jit
-from hal.can import kernels, pdo
-from hal.can.busload import classic_frame_bits
+from hal.can import pdo
+from hal.can.busload import FRAME_BITS
 from hal.can.cia402 import DriveMaster, Goal, State, decode
-from hal.can.ports import FrameReader, Port
+from hal.can.ports import BUS_ERRORS, FrameReader, Port
+from hal.can.records import RecordIO
 from hal.can.supervision import Supervisor
-from hal.can.unix_wire import HEADER, message
 from hal.interface import HardwareFault
 
-log = logging.getLogger(__name__)
-
-#: Worst-case classic frame length [bit] per data length (0..8 bytes).
-FRAME_BITS = [classic_frame_bits(n) for n in range(9)]
 #: Socketcan error-frame class bit of a bus-off (linux/can/error.h CAN_ERR_BUSOFF).
 CAN_ERR_BUSOFF = 0x40
-#: Errors python-can interfaces raise on send/receive.
-BUS_ERRORS = (can.CanError, OSError, ValueError)
 
 _TPDO1, _TPDO2, _HEARTBEAT = pdo.Kind.TPDO1, pdo.Kind.TPDO2, pdo.Kind.HEARTBEAT
 _RPDO_BITS, _SYNC_BITS, _HB_BITS = FRAME_BITS[6], FRAME_BITS[0], FRAME_BITS[1]
 _FAULTED = (State.FAULT, State.FAULT_REACTION_ACTIVE)
-_FRAME_BITS = np.array(FRAME_BITS, dtype=np.int64)
-_KIND_CODE = {
-    pdo.Kind.TPDO1: kernels.K_TPDO1,
-    pdo.Kind.TPDO2: kernels.K_TPDO2,
-    pdo.Kind.HEARTBEAT: kernels.K_HEARTBEAT,
-    pdo.Kind.EMCY: kernels.K_EMCY,
-}
-#: A ``unix`` wire frame of an RPDO1 [bytes]: header and 6 data bytes.
-_RPDO_WIRE = HEADER.size + 6
-
-
-class RecordBuses:
-    """The buses that take and give whole ``unix`` records (``recv_records`` and
-    ``send_record``: :class:`hal.can.unix_bus.UnixBus`), for the compiled path: per bus the
-    COB-ID tables of :func:`hal.can.kernels.decode_record` and its frame counters, and for
-    all of them at once the buffer, frame headers and bounds that
-    :func:`hal.can.kernels.encode_records` fills."""
-
-    def __init__(self, ports: Sequence[Port], node_ids: Sequence[int]):
-        self.ports = list(ports)
-        n = len(self.ports)
-        self.kinds = np.zeros((n, 2048), dtype=np.int64)
-        self.drives = np.zeros((n, 2048), dtype=np.int64)
-        #: Frames and worst-case bits decoded per bus in one receive.
-        self.counts = np.zeros((n, 2), dtype=np.int64)
-        rows, heads, order = [0], [], []
-        for p, port in enumerate(self.ports):
-            for cob_id, (kind, i) in port.table.items():
-                if cob_id < 2048 and kind in _KIND_CODE:
-                    self.kinds[p, cob_id] = _KIND_CODE[kind]
-                    self.drives[p, cob_id] = i
-            for i in port.drives:
-                heads.append(HEADER.pack(pdo.RPDO1 + node_ids[i], 0, 6, 6, 0.0)[:8])
-                order.append(i)
-            heads.append(HEADER.pack(pdo.SYNC, 0, 0, 0, 0.0)[:8])
-            order.append(-1)
-            rows.append(len(order))
-        #: Per bus and row: the first 8 bytes of each frame's header; its drive (−1: SYNC).
-        self.header = np.frombuffer(b"".join(heads), dtype=np.uint8).reshape(-1, 8).copy()
-        self.order = np.array(order, dtype=np.int64)
-        self.rows = np.array(rows, dtype=np.int64)
-        self.out = np.zeros(_RPDO_WIRE * len(order), dtype=np.uint8)
-        self.view = memoryview(self.out)  # type: ignore[arg-type]
-        self.bounds = np.zeros((n, 2), dtype=np.int64)
-        #: ``(port, kinds, drives, counts)`` per bus (the row views made once).
-        self.tables = [
-            (port, self.kinds[p], self.drives[p], self.counts[p])
-            for p, port in enumerate(self.ports)
-        ]
 
 
 class CycleIO:
@@ -146,13 +93,11 @@ class CycleIO:
         self._cw = memoryview(self.controlword)  # type: ignore[arg-type]
         self._cw_key = b""
         self._cw_dirty = True
-        #: Whole records on buses that take them (:class:`RecordCodec`), compiled kernels.
+        #: Whole records on buses that take them (:class:`hal.can.records.RecordIO`).
         self.compiled = jit.available()
-        self._records: RecordBuses | None = None
+        self._records: RecordIO | None = None
         self._frame_ports: list[Port] = []
         self._partial: dict[int, Port] = {}
-        self._stamp = np.zeros(1)
-        self._stamp_bytes = self._stamp.view(np.uint8)
         self._fresh = bytearray(n)
         self._seen = bytearray(n)
         #: A TPDO1 came in since the last :meth:`clear_fresh` (a view of a byte buffer).
@@ -165,7 +110,8 @@ class CycleIO:
         self.any_faulted = False
         self._decoded: list[int | None] = [None] * n
         self._state_key = b""
-        self._rpdo = [
+        #: Each drive's RPDO1 frame (packed in place; frame-by-frame path).
+        self.rpdo = [
             can.Message(arbitration_id=pdo.RPDO1 + nid, data=bytearray(6), is_extended_id=False)
             for nid in self.node_ids
         ]
@@ -181,7 +127,11 @@ class CycleIO:
     def ports(self, ports: list[Port]) -> None:
         self._ports = ports
         records = [p for p in ports if p.recv_records is not None and p.send_record is not None]
-        self._records = RecordBuses(records, self.node_ids) if records and self.compiled else None
+        self._records = (
+            RecordIO(records, self.node_ids, self, self.supervisor.last_heartbeat)
+            if records and self.compiled
+            else None
+        )
         taken = self._records.ports if self._records is not None else []
         #: Buses read and written frame by frame.
         self._frame_ports = [p for p in ports if p not in taken]
@@ -208,10 +158,10 @@ class CycleIO:
     def send(self) -> None:
         """RPDO1 of every drive seen (controlword, :attr:`target`), then SYNC, per bus: one
         record per bus where it takes them (compiled), else frame by frame."""
-        seen, cw, target, rpdo = self._seen, self._cw, self._tgt, self._rpdo
+        seen, cw, target, rpdo = self._seen, self._cw, self._tgt, self.rpdo
         self.controlwords()
         if self._records is not None:
-            self._send_records(self._records)
+            self._records.send()
         pack = pdo.RPDO1_STRUCT.pack_into
         for port in self._frame_ports:
             if port.failed:
@@ -229,36 +179,13 @@ class CycleIO:
                 msg = port.sync
                 send(msg, timeout)
             except BUS_ERRORS as exc:
-                self._send_failed(port, msg, exc)
+                self.send_failed(port, msg, exc)
             else:
                 port.syncs_sent += 1
                 port.frames_sent += 1
                 port.bits += _SYNC_BITS
             port.frames_sent += rpdos
             port.bits += rpdos * _RPDO_BITS
-
-    def _send_records(self, buses: RecordBuses) -> None:
-        """:meth:`send` of the record buses: every bus's record encoded in one call
-        (:func:`hal.can.kernels.encode_records`), then one ``send_record`` per bus."""
-        self._stamp[0] = time.time()
-        kernels.encode_records(
-            buses.out, buses.header, self._stamp_bytes, buses.rows, buses.order, self.seen,
-            self.controlword, self.target, buses.bounds,
-        )  # fmt: skip
-        view = buses.view
-        for port, (start, end) in zip(buses.ports, buses.bounds.tolist(), strict=True):
-            if port.failed:
-                continue
-            rpdos = (end - start - HEADER.size) // _RPDO_WIRE
-            try:
-                port.send_record(view[start:end])  # type: ignore[misc]
-            except BUS_ERRORS as exc:
-                first = next((i for i in port.drives if self._seen[i]), None)
-                self._send_failed(port, port.sync if first is None else self._rpdo[first], exc)
-                continue
-            port.syncs_sent += 1
-            port.frames_sent += rpdos + 1
-            port.bits += _SYNC_BITS + rpdos * _RPDO_BITS
 
     def send_heartbeat(self, now: float, force: bool = False) -> None:
         """The master heartbeat on every bus, if ``force`` or one period passed."""
@@ -271,12 +198,13 @@ class CycleIO:
             try:
                 port.bus.send(port.heartbeat, port.send_timeout)
             except BUS_ERRORS as exc:
-                self._send_failed(port, port.heartbeat, exc)
+                self.send_failed(port, port.heartbeat, exc)
                 continue
             port.frames_sent += 1
             port.bits += _HB_BITS
 
-    def _send_failed(self, port: Port, msg: can.Message, exc: BaseException) -> None:
+    def send_failed(self, port: Port, msg: can.Message, exc: BaseException) -> None:
+        """Sending ``msg`` on ``port`` raised ``exc``: the port stops, bus-off or bus error."""
         port.failed = True
         what = f"send of 0x{msg.arbitration_id:03X} failed: {exc}"
         try:
@@ -296,7 +224,7 @@ class CycleIO:
         buses that have a file descriptor (:attr:`Port.fd`), ``recv(timeout)`` bus after bus
         on the others."""
         if self._records is not None:
-            self._drain_records(self._records.tables)
+            self._records.drain()
         for port in self._frame_ports:
             self._drain(port)
         self._drain_ready()
@@ -312,7 +240,7 @@ class CycleIO:
                 ready = select.select(list(selectable), [], [], left)[0]
             except (OSError, ValueError) as exc:
                 for port in selectable.values():
-                    self._receive_failed(port, exc)
+                    self.receive_failed(port, exc)
                 break
             for fd in ready:
                 port = selectable[fd]
@@ -343,7 +271,7 @@ class CycleIO:
                 ready = select.select(fds, [], [], 0.0)[0]
             except (OSError, ValueError) as exc:
                 for port in partial.values():
-                    self._receive_failed(port, exc)
+                    self.receive_failed(port, exc)
                 return
             if not ready:
                 return
@@ -367,11 +295,11 @@ class CycleIO:
             try:
                 msg = port.bus.recv(left)
             except BUS_ERRORS as exc:
-                self._receive_failed(port, exc)
+                self.receive_failed(port, exc)
                 break
             if msg is None:
                 break
-            self._decode(port, msg)
+            self.decode_frame(port, msg)
         self._drain(port)
 
     def _drain(self, port: Port) -> None:
@@ -379,7 +307,7 @@ class CycleIO:
         one record per peer at a time (:meth:`_drain_frames`), where
         :meth:`_drain_ready` reads the rest."""
         if self._records is not None and port in self._records.ports:
-            self._drain_records([t for t in self._records.tables if t[0] is port])
+            self._records.drain(port)
             return
         reader = port.recv_frames
         if reader is not None:
@@ -395,7 +323,7 @@ class CycleIO:
                 entry = table.get(msg.arbitration_id)
                 dlc = msg.dlc
                 if entry is None or msg.is_error_frame:
-                    self._decode(port, msg)
+                    self.decode_frame(port, msg)
                     continue
                 frames += 1
                 bits += FRAME_BITS[dlc if dlc < 9 else 8]
@@ -408,9 +336,9 @@ class CycleIO:
                 else:
                     frames -= 1
                     bits -= FRAME_BITS[dlc if dlc < 9 else 8]
-                    self._decode(port, msg)
+                    self.decode_frame(port, msg)
         except BUS_ERRORS as exc:
-            self._receive_failed(port, exc)
+            self.receive_failed(port, exc)
         port.frames_received += frames
         port.bits += bits
 
@@ -421,10 +349,10 @@ class CycleIO:
         try:
             classic, others = reader(port.fd is None)
         except BUS_ERRORS as exc:
-            self._receive_failed(port, exc)
+            self.receive_failed(port, exc)
             return
         for msg in others:  # read by recv() before, or not classic data frames
-            self._decode(port, msg)
+            self.decode_frame(port, msg)
         table, fresh, seen = port.table, self._fresh, self._seen
         sw, position, velocity = self._sw, self._pos, self._vel
         tpdo1, tpdo2 = pdo.TPDO1_STRUCT.unpack_from, pdo.TPDO2_STRUCT.unpack_from
@@ -444,80 +372,17 @@ class CycleIO:
                 if size >= 4:
                     (velocity[i],) = tpdo2(data)
             else:
-                self._decode_data(kind, i, data)
+                self.decode_data(kind, i, data)
         port.frames_received += len(classic)
         port.bits += bits
 
-    def _drain_records(self, tables: list[tuple[Port, np.ndarray, np.ndarray, np.ndarray]]) -> None:
-        """:meth:`_drain` of the record buses ``tables`` (:attr:`RecordBuses.tables`): each
-        record (one per peer) decoded by :func:`hal.can.kernels.decode_record` into the
-        feedback arrays; the frames it leaves (EMCY, heartbeats other than OPERATIONAL,
-        frames with flags) in Python, in their place in the record."""
-        now = self.clock()
-        decode_record, bits, last_heartbeat = (
-            kernels.decode_record, _FRAME_BITS, self.supervisor.last_heartbeat
-        )  # fmt: skip
-        sw, position, velocity, fresh, seen = (
-            self.statusword, self.position, self.velocity, self.fresh, self.seen
-        )  # fmt: skip
-        decoded = []
-        for port, kinds, drives, counts in tables:
-            try:
-                records, others = port.recv_records(port.fd is None)  # type: ignore[misc]
-            except BUS_ERRORS as exc:
-                self._receive_failed(port, exc)
-                continue
-            for msg in others:  # read by recv() before
-                self._decode(port, msg)
-            if not records:
-                continue
-            decoded.append((port, counts))
-            for record in records:
-                size = len(record)
-                start = decode_record(record, 0, kinds, drives, bits, sw, position, velocity,
-                                      fresh, seen, now, last_heartbeat, counts)  # fmt: skip
-                while start < size:
-                    start = self._record_frame(port, record, start)
-                    if start < size:
-                        start = decode_record(record, start, kinds, drives, bits, sw, position,
-                                              velocity, fresh, seen, now, last_heartbeat,
-                                              counts)  # fmt: skip
-        for port, counts in decoded:
-            frames, length = counts.tolist()
-            port.frames_received += frames
-            port.bits += length
-        if decoded and self._records is not None:
-            self._records.counts.fill(0)
-
-    def _record_frame(self, port: Port, record: bytes, start: int) -> int:
-        """Decode the frame of ``record`` at byte ``start`` that the kernel left; the start
-        of the next one (the record's end if it is cut: logged, the rest dropped)."""
-        size = len(record)
-        end = start + HEADER.size
-        if end <= size:
-            can_id, flags, dlc, length, stamp = HEADER.unpack_from(record, start)
-            end += length
-        if end > size:
-            log.warning("bus %s: record of %d bytes cut at byte %d (dropped)",
-                        port.name, size, start)  # fmt: skip
-            return size
-        data = record[start + HEADER.size : end]
-        if flags:
-            self._decode(port, message(can_id, flags, dlc, stamp, data, port.name))
-            return end
-        port.frames_received += 1
-        port.bits += FRAME_BITS[length if length < 9 else 8]
-        entry = port.table.get(can_id)
-        if entry is not None:
-            self._decode_data(entry[0], entry[1], data)
-        return end
-
-    def _receive_failed(self, port: Port, exc: BaseException) -> None:
+    def receive_failed(self, port: Port, exc: BaseException) -> None:
+        """Receiving on ``port`` raised ``exc``: the port stops, a bus error (once)."""
         if not port.failed:
             port.failed = True
             self.on_fault([Supervisor.bus_error(port.name, f"receive failed: {exc}")])
 
-    def _decode(self, port: Port, msg: can.Message) -> None:
+    def decode_frame(self, port: Port, msg: can.Message) -> None:
         """Count and decode one frame received on ``port`` (any kind)."""
         port.frames_received += 1
         dlc = msg.dlc
@@ -529,9 +394,9 @@ class CycleIO:
             return
         entry = port.table.get(msg.arbitration_id)
         if entry is not None:
-            self._decode_data(entry[0], entry[1], msg.data)
+            self.decode_data(entry[0], entry[1], msg.data)
 
-    def _decode_data(self, kind: pdo.Kind, i: int, data: bytes | bytearray) -> None:
+    def decode_data(self, kind: pdo.Kind, i: int, data: bytes | bytearray) -> None:
         """Decode the data of one frame of ``kind`` from drive ``i`` (counted already)."""
         if kind is _TPDO1:
             if len(data) >= 6:

@@ -28,6 +28,8 @@ log = logging.getLogger(__name__)
 
 #: Per-bus supervision settings accepted among a bus's python-can overrides.
 SUPERVISION_KEYS = ("tpdo_timeout_cycles", "tpdo_timeout_ms")
+#: Errors python-can interfaces raise on send/receive.
+BUS_ERRORS = (can.CanError, OSError, ValueError)
 #: Interfaces without a bit rate setting (in-process or bridged buses).
 NO_BITRATE = ("virtual", "remote", "stub")
 
