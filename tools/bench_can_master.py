@@ -15,7 +15,12 @@ whole cycle (``read()`` + ``write()``, as the control loop calls them) p50/p99/m
 the median (and mean) of each phase from a second, instrumented pass. Usage::
 
     python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000] [--paced]
+                                     [--messages]
     python tools/bench_can_master.py --hil [--seconds 10] [--drives PATH]
+
+The stubs take and answer whole ``unix`` records (:class:`StubRecordBus`, the master's
+compiled record path of ``--hal hil``); ``--messages``: python-can frames one by one
+(:class:`StubDrivesBus`, the path of SocketCAN; also what runs without numba).
 
 ``--paced``: one cycle per period, sleeping in between as a control loop does (back to back
 by default): on this VM a cycle after a sleep costs more (caches cold; SmartPal V 171 µs
