@@ -8,13 +8,16 @@ import can
 import numpy as np
 import pytest
 
+from controller.model import jit
 from controller.model.alarms import AlarmCode
 from hal.can import pdo
 from hal.can.cia402 import Goal, State
 from hal.can.cycle import FRAME_BITS, CycleIO
 from hal.can.ports import Port, poller
-from hal.can.stub_bus import StubDrivesBus
+from hal.can.stub_bus import StubDrivesBus, StubRecordBus
 from hal.can.supervision import Supervisor
+from hal.can.unix_wire import encode
+from hal.can.unix_wire import frames as unix_frames
 from hal.interface import HardwareFault
 
 NODES = [3, 4, 5]
@@ -58,7 +61,7 @@ def test_no_rpdo_before_the_first_tpdo1_then_every_drive(rig: Rig):
     rig.io.clear_fresh()
     rig.io.receive()
     assert rig.io.fresh.all() and rig.io.seen.all()
-    assert rig.io.position == [10, -20, 30]
+    assert rig.io.position.tolist() == [10, -20, 30]
     rig.io.send()
     assert rig.bus.sent == 1 + 3 + 1
     assert rig.port.frames_sent == 5
@@ -75,7 +78,7 @@ def test_states_follow_the_goal_and_targets_are_packed(rig: Rig):
         rig.cycle()
     assert rig.io.all_enabled and not rig.io.any_faulted
     rig.io.hold_targets()
-    assert rig.io.target == [10, -20, 30]
+    assert rig.io.target.tolist() == [10, -20, 30]
     sent: list[can.Message] = []
     send = rig.bus.send
 
@@ -194,22 +197,25 @@ def test_receive_waits_on_every_bus_at_once_where_buses_have_descriptors(tmp_pat
         io.clear_fresh()
         io.receive(deadline=1.0)  # the fake clock never reaches it: returns when all came
         thread.join()
-        assert io.fresh.all() and io.position == [1, 2]
+        assert io.fresh.all() and io.position.tolist() == [1, 2]
         io.clear_fresh()
         drives[0].send(tpdo1(0, 7))
         now[0] = 1.0
         io.receive(deadline=1.0)  # deadline reached: bus b's drive is missing, a's is read
-        assert list(io.fresh) == [True, False] and io.position == [7, 2]
+        assert list(io.fresh) == [True, False] and io.position.tolist() == [7, 2]
     finally:
         for bus in masters + drives:
             bus.shutdown()
 
 
-@pytest.mark.parametrize("fast", [True, False], ids=["recv_frames", "python-can API"])
-def test_unix_buses_decode_the_same_through_recv_frames_and_the_api(tmp_path, fast):
-    """A unix bus is read with recv_frames (no can.Message per classic frame) and decodes
-    exactly as through python-can's API: every record waiting (here three), TPDO1/TPDO2,
-    heartbeats, EMCY, a bus-off error frame; frames and bits counted alike."""
+@pytest.mark.parametrize("path", ["records", "recv_frames", "python-can API"])
+def test_unix_buses_decode_the_same_through_recv_frames_and_the_api(tmp_path, path):
+    """A unix bus is read as whole records (compiled), with recv_frames (no can.Message per
+    classic frame) and decodes exactly as through python-can's API: every record waiting
+    (here three), TPDO1/TPDO2, heartbeats, EMCY, a bus-off error frame; frames and bits
+    counted alike."""
+    if path == "records" and not jit.available():
+        pytest.skip("numba not installed or IMOTION_JIT=0")
     from hal.can.unix_bus import UnixBus
 
     master = UnixBus(str(tmp_path / "b"))
@@ -222,11 +228,15 @@ def test_unix_buses_decode_the_same_through_recv_frames_and_the_api(tmp_path, fa
             can.Message(arbitration_id=0x77F, data=b"\x05", is_extended_id=False),
         )  # fmt: skip
         assert port.recv_frames == master.recv_frames
-        if not fast:
+        assert port.recv_records == master.recv_records
+        if path != "records":
+            port.recv_records = port.send_record = None
+        if path == "python-can API":
             port.recv_frames = None  # the python-can API (port.poll), as on SocketCAN
         sup = Supervisor(["a", "b", "c"], NODES, ["b"] * 3, 0.002, np.full(3, 0.1), 0.006, 0.3, 3)
         faults: list[HardwareFault] = []
         io = CycleIO([port], NODES, sup, faults.extend, lambda: 7.0, 0.1)
+        assert (io._records is not None) == (path == "records")
         io.receive()  # accepts the drive
         for i, node in enumerate(NODES):
             drive.send_raw(pdo.TPDO1 + node, pdo.TPDO1_STRUCT.pack(0x27, 100 * (i + 1)))
@@ -236,8 +246,8 @@ def test_unix_buses_decode_the_same_through_recv_frames_and_the_api(tmp_path, fa
         drive.send(can.Message(arbitration_id=0x40, is_error_frame=True, data=bytes(8)))
         io.clear_fresh()
         io.receive()
-        assert io.fresh.all() and io.position == [100, 200, 300] and io.velocity[2] == -77
-        assert io.statusword == [0x27] * 3 and sup.last_heartbeat[1] == 7.0
+        assert io.fresh.all() and io.position.tolist() == [100, 200, 300] and io.velocity[2] == -77
+        assert io.statusword.tolist() == [0x27] * 3 and sup.last_heartbeat[1] == 7.0
         assert [(f.code, f.source) for f in faults] == [
             (AlarmCode.EMCY, "a"), (AlarmCode.BUS_OFF, "b")
         ]  # fmt: skip
@@ -276,3 +286,81 @@ def test_a_bus_readable_with_nothing_to_read_does_not_hold_receive(tmp_path):
     finally:
         master.shutdown()
         drive.shutdown()
+
+
+class RecordRig(Rig):
+    """:class:`Rig` on a stub bus that takes and answers whole ``unix`` records."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.bus = StubRecordBus("b", NODES, [True, False, True], positions=[10, -20, 30])
+        self.port = Port(
+            "b", self.bus, [0, 1, 2], dict(self.port.table), self.port.sync, self.port.heartbeat
+        )  # fmt: skip
+        self.io.ports = [self.port]
+
+    def inject(self, *msgs: can.Message) -> None:
+        self.bus._records.append(b"".join(encode(m) for m in msgs))
+
+
+@pytest.mark.skipif(not jit.available(), reason="numba not installed or IMOTION_JIT=0")
+def test_records_decode_and_encode_as_the_frames_do():
+    """The compiled record path (one record per bus and cycle, :func:`decode_record` /
+    :func:`encode_record`) gives the frame path's feedback, states, controlwords, faults,
+    counters and RPDO bytes, EMCY and heartbeats in the middle of a record included."""
+    plain, fast = Rig(), RecordRig()
+    assert fast.io._records is not None and plain.io._records is None
+    sent: list[tuple[int, bytes]] = []
+    send = plain.bus.send
+
+    def spy(msg: can.Message, timeout: float | None = None) -> None:
+        sent.append((msg.arbitration_id, bytes(msg.data)))
+        send(msg, timeout)
+
+    plain.bus.send = spy  # type: ignore[method-assign]
+    records: list[bytes] = []
+    send_record = fast.bus.send_record
+
+    def record_spy(record: bytes | memoryview) -> None:
+        records.append(bytes(record))
+        send_record(record)
+
+    fast.bus.send_record = record_spy  # type: ignore[method-assign]
+    fast.port.send_record = record_spy
+    extra = [
+        can.Message(arbitration_id=0x285, data=pdo.TPDO2_STRUCT.pack(-77)),
+        can.Message(arbitration_id=0x704, data=b"\x05"),
+        can.Message(arbitration_id=0x704, data=b"\x7f"),  # pre-operational: a fault now
+        can.Message(arbitration_id=0x083, data=b"\x10\x23\x02\0\0\0\0\0"),
+        can.Message(arbitration_id=0x183, data=pdo.TPDO1_STRUCT.pack(0x27, -(2**31))),
+    ]
+    for k in range(8):
+        for r in (plain, fast):
+            if k == 1:
+                r.io.set_goal(Goal.ENABLED)
+            if k == 6:
+                r.io.target[:] = [5, -(2**31), 2**31 - 1]
+                r.now = 7.0
+                if r is fast:
+                    fast.inject(*extra)
+                else:
+                    plain.bus._queue.extend(extra)
+            r.cycle()
+        assert fast.io.statusword.tolist() == plain.io.statusword.tolist()
+        assert fast.io.position.tolist() == plain.io.position.tolist()
+        assert fast.io.velocity.tolist() == plain.io.velocity.tolist()
+        assert fast.io.states == plain.io.states
+        assert list(fast.io.fresh) == list(plain.io.fresh)
+        assert fast.sup.last_heartbeat.tolist() == plain.sup.last_heartbeat.tolist()
+        assert [(f.code, f.source, f.description) for f in fast.faults] == [
+            (f.code, f.source, f.description) for f in plain.faults
+        ]
+        for what in ("frames_sent", "frames_received", "syncs_sent", "bits"):
+            assert getattr(fast.port, what) == getattr(plain.port, what), what
+    assert fast.io.all_enabled == plain.io.all_enabled
+    assert [f.code for f in fast.faults] == [AlarmCode.HEARTBEAT_LOST, AlarmCode.EMCY]
+    # The same RPDOs and SYNCs, frame for frame (the timestamps aside).
+    frames = []
+    for record in records:
+        frames += [(cob, bytes(data)) for cob, _, _, _, data in unix_frames(record)]
+    assert frames == sent

@@ -27,12 +27,12 @@ def test_command_then_feedback_round_trip():
     m = make("pa10")
     all_seen = np.ones(len(m.drive_names), dtype=bool)
     q = np.linspace(-0.5, 0.5, len(m.joint_names))
-    counts = [0] * len(m.drive_names)
+    counts = np.full(len(m.drive_names), 0, dtype=np.int64)
     m.command(q, counts)
-    m.update(counts, [0] * len(counts), all_seen, all_seen)
+    m.update(counts, np.full(len(counts), 0, dtype=np.int64), all_seen, all_seen)
     np.testing.assert_allclose(m.position, q, atol=1e-5)
     np.testing.assert_allclose(m.target[m.joint_drive], q[m.joint_idx])
-    m.update(counts, [0] * len(counts), all_seen, all_seen)
+    m.update(counts, np.full(len(counts), 0, dtype=np.int64), all_seen, all_seen)
     np.testing.assert_allclose(m.velocity, 0.0, atol=1e-9)  # same counts: at rest
 
 
@@ -41,11 +41,11 @@ def test_unseen_drives_keep_their_position_and_stale_ones_their_velocity():
     n = len(m.drive_names)
     seen, fresh = np.ones(n, dtype=bool), np.ones(n, dtype=bool)
     a, b, c = np.flatnonzero(~m.has_velocity)[:3]  # velocity from positions
-    m.update([1000] * n, [0] * n, fresh, seen)
+    m.update(np.full(n, 1000, dtype=np.int64), np.full(n, 0, dtype=np.int64), fresh, seen)
     before, vel_before = m.pos.copy(), m.vel.copy()
     seen[a] = fresh[a] = False
     fresh[b] = False
-    m.update([5000] * n, [0] * n, fresh, seen)
+    m.update(np.full(n, 5000, dtype=np.int64), np.full(n, 0, dtype=np.int64), fresh, seen)
     assert m.pos[a] == before[a] and m.pos[b] != before[b]
     assert m.vel[b] == vel_before[b] and m.vel[c] != vel_before[c]
 
@@ -55,12 +55,12 @@ def test_wheels_integrate_across_the_32_bit_wrap():
     n = len(m.drive_names)
     ones = np.ones(n, dtype=bool)
     w = m.wheel_idx[0]
-    raw = [0] * n
+    raw = np.full(n, 0, dtype=np.int64)
     raw[w] = I32_MAX - 10
-    m.update(raw, [0] * n, ones, ones)
+    m.update(raw, np.full(n, 0, dtype=np.int64), ones, ones)
     start = m.pos[w]
     raw[w] = -(2**31) + 9  # 20 counts further, wrapped
-    m.update(raw, [0] * n, ones, ones)
+    m.update(raw, np.full(n, 0, dtype=np.int64), ones, ones)
     assert m.pos[w] - start == pytest.approx(20 / m.scale.factor[w])
 
 
@@ -68,14 +68,14 @@ def test_vehicle_command_moves_the_wheels_and_odometry_follows():
     m = make("smartpal5")
     n = len(m.drive_names)
     ones = np.ones(n, dtype=bool)
-    counts = [0] * n
-    m.update(counts, [0] * n, ones, ones)
+    counts = np.full(n, 0, dtype=np.int64)
+    m.update(counts, np.full(n, 0, dtype=np.int64), ones, ones)
     m.hold()
     q = m.position.copy()
     x = m.joint_names.index("vehicle_x")
     q[x] += 0.01
     m.command(q, counts)
-    m.update(counts, [0] * n, ones, ones)
+    m.update(counts, np.full(n, 0, dtype=np.int64), ones, ones)
     assert m.position[x] == pytest.approx(q[x], abs=1e-5)
 
 

@@ -15,6 +15,7 @@ from hal.can.ports import (
     frame_reader,
     open_ports,
     poller,
+    record_io,
     split_supervision,
 )
 from hal.can.supervision import DriveError
@@ -111,4 +112,22 @@ def test_frame_reader_only_where_the_bus_offers_it_without_filters(tmp_path):
         assert frame_reader(filtered) is None and frame_reader(virtual) is None
     finally:
         for bus in (plain, filtered, virtual):
+            bus.shutdown()
+
+
+def test_record_io_only_where_the_bus_takes_records_without_filters(tmp_path):
+    """recv_records/send_record (unix, record stubs) are the compiled path's; a bus with
+    filters or without them keeps frames."""
+    from hal.can.stub_bus import StubDrivesBus, StubRecordBus
+    from hal.can.unix_bus import UnixBus
+
+    plain = UnixBus(str(tmp_path / "b"))
+    filtered = UnixBus(str(tmp_path / "b"), can_filters=[{"can_id": 0x181, "can_mask": 0x7FF}])
+    stubs = StubRecordBus("s", [1], [False]), StubDrivesBus("t", [1], [False])
+    try:
+        assert record_io(plain) == (plain.recv_records, plain.send_record)
+        assert record_io(stubs[0]) == (stubs[0].recv_records, stubs[0].send_record)
+        assert record_io(filtered) == (None, None) and record_io(stubs[1]) == (None, None)
+    finally:
+        for bus in (plain, filtered, *stubs):
             bus.shutdown()

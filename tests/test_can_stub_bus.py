@@ -5,7 +5,9 @@ from __future__ import annotations
 import can
 
 from hal.can import pdo
-from hal.can.stub_bus import StubDrivesBus
+from hal.can.stub_bus import StubDrivesBus, StubRecordBus
+from hal.can.unix_wire import encode
+from hal.can.unix_wire import frames as unix_frames
 
 
 def frames(bus: StubDrivesBus) -> list[can.Message]:
@@ -53,4 +55,32 @@ def test_muted_nodes_send_no_tpdo():
     bus.muted.add(1)
     bus.send(can.Message(arbitration_id=pdo.SYNC, data=b""))
     assert [m.arbitration_id for m in frames(bus)] == [0x182, 0x282]
+    bus.shutdown()
+
+
+def record_frames(bus: StubRecordBus) -> list[tuple[int, bytes]]:
+    records, others = bus.recv_records()
+    assert others == []
+    return [(f[0], f[4]) for r in records for f in unix_frames(r)]
+
+
+def test_the_record_stub_answers_a_cycle_record_as_the_frames():
+    """A master's cycle as one record (RPDO1s, SYNC) or frame by frame (python-can or a
+    record of other frames): the same answer, one record per SYNC, muted nodes left out."""
+    bus = StubRecordBus("x", [1, 2], [True, False], positions=[7, -7], heartbeat_every=2)
+    rpdo = encode(can.Message(arbitration_id=0x201, data=pdo.RPDO1_STRUCT.pack(0x06, 0)))
+    bus.send_record(memoryview(rpdo + encode(can.Message(arbitration_id=pdo.SYNC))))
+    got = record_frames(bus)
+    assert [cob for cob, _ in got] == [0x181, 0x182, 0x281]
+    assert pdo.TPDO1_STRUCT.unpack(got[0][1]) == (0x21, 7)
+    bus.send(can.Message(arbitration_id=0x202, data=pdo.RPDO1_STRUCT.pack(0x06, 0)))
+    bus.send_record(encode(can.Message(arbitration_id=0x701, data=b"\x05"))
+                    + encode(can.Message(arbitration_id=pdo.SYNC)))  # fmt: skip
+    got = record_frames(bus)
+    assert [cob for cob, _ in got] == [0x181, 0x182, 0x281, 0x701, 0x702]
+    assert pdo.TPDO1_STRUCT.unpack(got[1][1]) == (0x21, -7)
+    bus.muted.add(1)
+    bus.send(can.Message(arbitration_id=pdo.SYNC, data=b""))
+    assert [cob for cob, _ in record_frames(bus)] == [0x182]
+    assert bus.syncs == 3 and bus.sent == 2 + 1 + 2 + 1
     bus.shutdown()

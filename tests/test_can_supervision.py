@@ -104,19 +104,28 @@ def test_check_runs_every_check_of_a_cycle():
     s.reset(0.0)
     fresh = np.array([True, True])
     enabled = [State.OPERATION_ENABLED, State.OPERATION_ENABLED]
-    assert s.check(0.002, fresh, enabled, [0x27, 0x27], True, True, False, np.zeros(2)) == []
+    assert (
+        s.check(0.002, fresh, enabled, [0x27, 0x27], True, True, False, np.zeros(2), np.zeros(2))
+        == []
+    )
     states = [State.OPERATION_ENABLED, State.SWITCHED_ON]
-    faults = s.check(0.004, fresh, states, [0x27, 0x23], True, False, False, np.zeros(2))
+    faults = s.check(
+        0.004, fresh, states, [0x27, 0x23], True, False, False, np.zeros(2), np.zeros(2)
+    )
     assert [(f.code, f.source) for f in faults] == [(AlarmCode.DRIVE_FAULT, "b")]
     assert "left operation enabled (state: switched on)" in faults[0].description
     states = [State.FAULT, State.SWITCH_ON_DISABLED]
-    faults = s.check(0.006, fresh, states, [0x08, 0x40], False, False, True, np.zeros(2))
+    faults = s.check(
+        0.006, fresh, states, [0x08, 0x40], False, False, True, np.zeros(2), np.zeros(2)
+    )
     assert [(f.code, f.source) for f in faults] == [(AlarmCode.DRIVE_FAULT, "a")]
     # Following error: enabled drives with fresh feedback, for the following time.
     err, on = np.array([0.5, 0.5]), [0x27, 0x27]
     faults = []
     for t in (0.008, 0.010, 0.012):
-        faults += s.check(t, np.array([True, False]), enabled, on, True, True, False, err)
+        faults += s.check(
+            t, np.array([True, False]), enabled, on, True, True, False, err, np.zeros(2)
+        )
     assert [(f.code, f.source) for f in faults] == [
         (AlarmCode.TPDO_TIMEOUT, "b"),
         (AlarmCode.FOLLOWING_ERROR, "a"),

@@ -259,3 +259,24 @@ def test_recv_frames_without_drain_reads_one_record_per_peer(channel):
             assert master.recv_frames(False) == ([(0x183, b"")], [])
         b.shutdown()  # b and late left
         assert master.recv_frames(False) == ([], []) and master.peers == 1
+
+
+def test_records_in_and_out_whole(channel):
+    """recv_records hands over each record as received (pending messages apart);
+    send_record sends whole wire frames as one record, after the frames held."""
+    with UnixBus(channel) as master, UnixBus(channel, hold_pdos=True) as drive:
+        assert master.recv_records(False) == ([], []) and master.peers == 1
+        drive.send(message(0x181, b"\x01\x02"))  # held
+        drive.send_record(memoryview(encode(message(0x080)) + encode(message(0x701, b"\x05"))))
+        records, others = master.recv_records()
+        assert others == [] and len(records) == 1
+        assert [(f[0], f[4]) for f in frames(records[0])] == [
+            (0x181, b"\x01\x02"), (0x080, b""), (0x701, b"\x05"),
+        ]  # fmt: skip
+        drive.send(message(0x080))
+        assert master.recv(TIMEOUT).arbitration_id == 0x080
+        drive.send(message(0x081))
+        master._pending.append(message(0x082))  # read by recv() before, not returned
+        records, others = master.recv_records(True)
+        assert [m.arbitration_id for m in others] == [0x082]
+        assert [f[0] for r in records for f in frames(r)] == [0x081]

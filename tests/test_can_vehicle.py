@@ -59,3 +59,10 @@ def test_hold_resets_the_command_to_the_odometry():
     m.hold()
     np.testing.assert_allclose(m.command_pose, [0.2, 0.1, 0.3])
     np.testing.assert_allclose(m.wheel_targets, [1.0, 2.0, 3.0])
+
+
+def test_an_empty_mapping_has_arrays_of_no_wheels():
+    m = VehicleMapping.empty()
+    assert m.matrix.shape == (0, 3) and m.inverse.shape == (3, 0)
+    assert m.pose.shape == m.velocity.shape == m.command_pose.shape == (3,)
+    assert m._wheels.shape == m.wheel_targets.shape == (0,)

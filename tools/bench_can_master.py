@@ -15,7 +15,12 @@ whole cycle (``read()`` + ``write()``, as the control loop calls them) p50/p99/m
 the median (and mean) of each phase from a second, instrumented pass. Usage::
 
     python tools/bench_can_master.py [--robot smartpal5] [--rate 500] [--cycles 20000] [--paced]
+                                     [--messages]
     python tools/bench_can_master.py --hil [--seconds 10] [--drives PATH]
+
+The stubs take and answer whole ``unix`` records (:class:`StubRecordBus`, the master's
+compiled record path of ``--hal hil``); ``--messages``: python-can frames one by one
+(:class:`StubDrivesBus`, the path of SocketCAN; also what runs without numba).
 
 ``--paced``: one cycle per period, sleeping in between as a control loop does (back to back
 by default): on this VM a cycle after a sleep costs more (caches cold; SmartPal V 171 µs
@@ -47,10 +52,11 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from controller.model import jit  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
 from hal.can.backend import CanBackend  # noqa: E402
 from hal.can.drive_profile import drives_path, load_drive_profile  # noqa: E402
-from hal.can.stub_bus import StubDrivesBus  # noqa: E402
+from hal.can.stub_bus import StubDrivesBus, StubRecordBus  # noqa: E402
 from hal.interface import HardwareState, JointCommand  # noqa: E402
 
 #: Amplitude [rad] or [m] of the commanded sine (within the following window of every drive).
@@ -83,9 +89,15 @@ class CycleClock:
         self.t += self.dt
 
 
-def stub_backend(robot_id: str = "smartpal5", rate: float = 500.0) -> CanBackend:
+def stub_backend(
+    robot_id: str = "smartpal5", rate: float = 500.0, records: bool = True
+) -> CanBackend:
     """A configured, active CanBackend of ``robot_id`` on stub buses (module doc); its clock
-    is a :class:`CycleClock` (``backend._clock``)."""
+    is a :class:`CycleClock` (``backend._clock``). ``records``: the stubs take and answer
+    whole ``unix`` records (:class:`StubRecordBus`, the path of ``unix`` buses), else
+    python-can messages frame by frame (:class:`StubDrivesBus`, the path of SocketCAN);
+    records need the compiled kernels (without them the master reads frames)."""
+    records = records and jit.available()
     robot = load_robot(robot_id)
     profile = load_drive_profile(drives_path(robot), robot)
     dt = 1.0 / rate
@@ -93,7 +105,7 @@ def stub_backend(robot_id: str = "smartpal5", rate: float = 500.0) -> CanBackend
     buses = {}
     for name in profile.buses:
         drives = list(profile.drives_on(name).values())
-        buses[name] = StubDrivesBus(
+        buses[name] = (StubRecordBus if records else StubDrivesBus)(
             name,
             [d.node_id for d in drives],
             [d.velocity_feedback for d in drives],
@@ -153,14 +165,16 @@ def measure_master(
     cycles: int = 20000,
     warmup: int = 500,
     paced: bool = False,
+    records: bool = True,
 ) -> dict[str, object]:
     """The CAN master's per-cycle cost [µs] for ``robot_id`` at ``rate`` [Hz], measured alone
     on stub buses (module doc): ``cycle`` (read + write) statistics, per-phase p50 and mean, drive
     and bus counts, load average. Runs ``warmup`` + ``cycles`` cycles twice, back to back
     (no sleeping: the cost, not the rate; the backend's clock moves one period per cycle), or
     with ``paced`` one cycle per period as a control loop runs them (sleeping in between:
-    what a cycle costs with the caches as the sleep left them)."""
-    backend = stub_backend(robot_id, rate)
+    what a cycle costs with the caches as the sleep left them). ``records``: as
+    :func:`stub_backend`."""
+    backend = stub_backend(robot_id, rate, records)
     tick = backend._clock.step  # type: ignore[attr-defined]
     deadline = [time.monotonic()]
 
@@ -205,6 +219,8 @@ def measure_master(
             "buses": len(backend.profile.buses),
             "cycles": cycles,
             "paced": paced,
+            "path": "records" if records and backend.io.compiled else "messages",
+            "compiled": backend.io.compiled,
             "cycle": _stats(total),
             "phases_p50_us": {
                 name: round(float(np.percentile(v, 50)) / 1e3, 1) for name, v in ns.items()
@@ -313,6 +329,9 @@ def main() -> int:
     parser.add_argument("--hil", action="store_true", help="unix buses, emulator process")
     parser.add_argument("--paced", action="store_true",
                         help="stub buses: one cycle per period (sleeping in between)")  # fmt: skip
+    parser.add_argument("--messages", action="store_true",
+                        help="stub buses: python-can messages frame by frame (SocketCAN's "
+                        "path), not unix records")  # fmt: skip
     parser.add_argument("--seconds", type=float, default=10.0, help="--hil: run time [s]")
     parser.add_argument("--drives", help="--hil: another drive profile")
     args = parser.parse_args()
@@ -335,7 +354,9 @@ def main() -> int:
         print(f"load average {hil['loadavg']} (2 cores, shared)")
         print(json.dumps(hil))
         return 0
-    result = measure_master(args.robot, args.rate, args.cycles, paced=args.paced)
+    result = measure_master(
+        args.robot, args.rate, args.cycles, paced=args.paced, records=not args.messages
+    )
     cycle = result["cycle"]
     phases = result["phases_p50_us"]
     assert isinstance(cycle, dict) and isinstance(phases, dict)
@@ -343,7 +364,8 @@ def main() -> int:
         f"CAN master alone: {args.robot}, {result['drives']} drives on {result['buses']} buses, "
         f"{args.rate:g} Hz period, {args.cycles} cycles "
         f"{'paced (one per period)' if args.paced else 'back to back'}, stub buses "
-        f"({result['frames_per_cycle']} frames per cycle)"
+        f"({result['frames_per_cycle']} frames per cycle, {result['path']}, "
+        f"{'compiled' if result['compiled'] else 'NumPy'})"
     )
     print(
         f"cycle (read + write) [µs]: p50 {cycle['p50_us']:.1f}  p99 {cycle['p99_us']:.1f}  "

@@ -500,7 +500,8 @@ class CanBackend(HardwareInterface):
             self._state is HardwareState.ACTIVE,
             io.all_enabled,
             io.any_faulted,
-            self.joints.pos - self._checked,
+            self.joints.pos,
+            self._checked,
         )
         if faults:
             self._enter_fault(faults)

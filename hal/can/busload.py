@@ -48,6 +48,10 @@ def classic_frame_bits(n: int) -> int:
     return 47 + 8 * n + (34 + 8 * n - 1) // 4
 
 
+#: Worst-case classic frame length [bit] per data length (0..8 bytes).
+FRAME_BITS = [classic_frame_bits(n) for n in range(9)]
+
+
 def fd_frame_time(n: int, bitrate: float, data_bitrate: float) -> float:
     """Worst-case duration [s] of a CAN FD frame (bit-rate switch) with ``n`` data bytes."""
     if not 0 <= n <= 64:

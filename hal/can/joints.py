@@ -6,15 +6,19 @@ name. The vehicle's virtual joints x, y [m] and θ [rad] map to the wheel drives
 odometry) unless the profile lists them as drives. Scaling counts <-> SI is
 :mod:`hal.can.scaling`; wheels turn without bound (their 32-bit positions are integrated as
 wrapped differences).
+
+Each cycle's :meth:`JointMap.update` and :meth:`JointMap.command` are one compiled call
+each (:mod:`hal.can.kernels`) where :func:`controller.model.jit.available`, else the NumPy
+code below (the same numbers up to rounding; tests compare both).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
+from controller.model import jit
 from controller.model.robot import Robot
+from hal.can import kernels
 from hal.can.drive_profile import VEHICLE_JOINTS, DriveProfile
 from hal.can.scaling import I32_MIN, ScalingArray, delta_i32
 from hal.can.vehicle import VehicleMapping
@@ -68,18 +72,42 @@ class JointMap:
         self._si = np.zeros(n)
         #: Set-point [SI] per drive sent before the last SYNC.
         self.target = np.zeros(n)
-        self._wheel_raw = [0] * len(wheels)
-        self._wheel_seen = [False] * len(wheels)
+        self._wheel_raw = np.zeros(len(wheels), dtype=np.int64)
+        self._wheel_seen = np.zeros(len(wheels), dtype=np.bool_)
         self._vehicle_started = False
         #: Every wheel reports its velocity (TPDO2): odometry twist from speeds.
         self._wheel_speeds = bool(wheels) and bool(self.has_velocity[self.wheel_idx].all())
         #: Joint state [rad]/[m] and [rad/s]/[m/s] in :attr:`joint_names` order.
         self.position = np.zeros(len(self.joint_names))
         self.velocity = np.zeros(len(self.joint_names))
+        #: Compiled kernels (:mod:`hal.can.kernels`) for update() and command().
+        self.compiled = jit.available()
+        self._wheel_idx = np.array(self.wheel_idx, dtype=np.int64)
+        self._vel_drives = np.array(self._vel_idx, dtype=np.int64)
+        self._vehicle_flags = np.zeros(3, dtype=np.int64)  # has one, started, wheel speeds
+        self._vehicle_flags[0] = self.vehicle is not None
+        self._vehicle_flags[2] = self._wheel_speeds
+        vehicle = self.vehicle or VehicleMapping.empty()
+        self._odometry = (vehicle.pose, vehicle.velocity, vehicle._wheels,
+                          np.ascontiguousarray(vehicle.inverse))  # fmt: skip
+        self._command_arrays = (np.ascontiguousarray(vehicle.matrix), vehicle.command_pose,
+                                vehicle.wheel_targets)  # fmt: skip
+        self._vehicle_joints3 = (
+            self._vehicle_joints if len(self._vehicle_joints) else np.zeros(3, dtype=np.int64)
+        )
+        self._counts = np.zeros(n, dtype=np.int64)
 
-    def command(self, position: np.ndarray, out: list[int]) -> None:
+    def command(self, position: np.ndarray, out: np.ndarray) -> None:
         """Joint set-points [SI] -> :attr:`target` [SI] and ``out`` [counts] per drive."""
         target = self.target
+        if self.compiled:
+            matrix, command_pose, wheel_targets = self._command_arrays
+            kernels.command(
+                position, self.joint_idx, self.joint_drive, target, self.scale.factor,
+                self.scale.offset, out, self._wheel_idx, matrix, command_pose,
+                wheel_targets, self._vehicle_joints3,
+            )  # fmt: skip
+            return
         target[self.joint_drive] = position[self.joint_idx]
         if self.vehicle is not None:
             target[self.wheel_idx] = self.vehicle.command(position[self._vehicle_joints])
@@ -87,7 +115,7 @@ class JointMap:
         counts -= I32_MIN
         counts %= 2**32
         counts += I32_MIN
-        out[:] = counts.tolist()
+        out[:] = counts
 
     def hold(self) -> None:
         """Set-point := measured (the targets in counts are the caller's: the raw actuals)."""
@@ -97,8 +125,8 @@ class JointMap:
 
     def update(
         self,
-        raw: Sequence[int],
-        raw_velocity: Sequence[int],
+        raw: np.ndarray,
+        raw_velocity: np.ndarray,
         fresh: np.ndarray,
         seen: np.ndarray,
     ) -> None:
@@ -106,7 +134,10 @@ class JointMap:
         sent a TPDO1, ``fresh``: sent one this cycle).
 
         Every cycle, 21 drives: few NumPy calls (each costs microseconds whatever its size),
-        the flags tested as bytes."""
+        the flags tested as bytes; compiled: one call)."""
+        if self.compiled:
+            self._update_compiled(raw, raw_velocity, fresh, seen)
+            return
         pos, prev, vel = self.pos, self._prev, self.vel
         prev[:] = pos
         si = np.subtract(raw, self.scale.offset, out=self._si)  # [counts] as float, exact
@@ -134,7 +165,7 @@ class JointMap:
         self.position[self.joint_idx] = pos[self.joint_drive]
         self.velocity[self.joint_idx] = vel[self.joint_drive]
         vehicle = self.vehicle
-        if vehicle is not None and all(self._wheel_seen):
+        if vehicle is not None and self._wheel_seen.all():
             wheels = pos[self.wheel_idx]
             speeds = self.vel[self.wheel_idx] if self._wheel_speeds else None
             if self._vehicle_started:
@@ -142,5 +173,25 @@ class JointMap:
             else:
                 vehicle.start(wheels)
                 self._vehicle_started = True
+                self._vehicle_flags[1] = 1
             self.position[self._vehicle_joints] = vehicle.pose
             self.velocity[self._vehicle_joints] = vehicle.velocity
+
+    def _update_compiled(
+        self, raw: np.ndarray, raw_velocity: np.ndarray, fresh: np.ndarray, seen: np.ndarray
+    ) -> None:
+        """:meth:`update` as one kernel call (:func:`hal.can.kernels.feedback`)."""
+        pose, twist, last, inverse = self._odometry
+        start = kernels.feedback(
+            raw, raw_velocity, fresh, seen, self.scale.offset, self.scale.factor, self.dt,
+            self._wheel_idx, self._wheel_raw, self._wheel_seen, self._vel_drives, self.pos,
+            self._prev, self.vel, self.joint_idx, self.joint_drive, self.position,
+            self.velocity, self._vehicle_flags, pose, twist, last, inverse,
+            self._vehicle_joints3,
+        )  # fmt: skip
+        if start == kernels.START_VEHICLE and self.vehicle is not None:
+            self.vehicle.start(self.pos[self.wheel_idx])
+            self._vehicle_started = True
+            self._vehicle_flags[1] = 1
+            self.position[self._vehicle_joints] = self.vehicle.pose
+            self.velocity[self._vehicle_joints] = self.vehicle.velocity

@@ -28,6 +28,8 @@ log = logging.getLogger(__name__)
 
 #: Per-bus supervision settings accepted among a bus's python-can overrides.
 SUPERVISION_KEYS = ("tpdo_timeout_cycles", "tpdo_timeout_ms")
+#: Errors python-can interfaces raise on send/receive.
+BUS_ERRORS = (can.CanError, OSError, ValueError)
 #: Interfaces without a bit rate setting (in-process or bridged buses).
 NO_BITRATE = ("virtual", "remote", "stub")
 
@@ -38,6 +40,13 @@ BusFactory = Callable[[str, dict[str, Any]], can.BusABC]
 #: ``drain`` False only what one read per peer brings, the rest keeps the descriptor
 #: readable: :meth:`hal.can.unix_bus.UnixBus.recv_frames`).
 FrameReader = Callable[[bool], tuple[list[tuple[int, bytes]], list[can.Message]]]
+#: ``(drain) -> (records, others)``: whole records of frames in the ``unix`` wire format
+#: (:mod:`hal.can.unix_wire`) waiting, and messages read before
+#: (:meth:`hal.can.unix_bus.UnixBus.recv_records`); ``drain`` as :data:`FrameReader`.
+RecordReader = Callable[[bool], tuple[list[bytes], list[can.Message]]]
+#: ``(record)``: whole frames in the ``unix`` wire format sent as one record
+#: (:meth:`hal.can.unix_bus.UnixBus.send_record`).
+RecordWriter = Callable[[bytes | memoryview], None]
 
 
 def open_bus(_name: str, kwargs: dict[str, Any]) -> can.BusABC:
@@ -96,6 +105,10 @@ class Port:
     #: others as messages (:meth:`hal.can.unix_bus.UnixBus.recv_frames`), on a bus that
     #: offers it and has no filters; else None (python-can's API: ``poll``).
     recv_frames: FrameReader | None = field(init=False)
+    #: Whole records in and out (``unix`` buses without filters, stub buses that answer
+    #: so), else None: :func:`record_io`.
+    recv_records: RecordReader | None = field(init=False)
+    send_record: RecordWriter | None = field(init=False)
     #: The bus's file descriptor to wait on (``select``), or None (``virtual``, stub buses).
     fd: int | None = field(init=False)
     frames_sent: int = 0
@@ -107,6 +120,7 @@ class Port:
     def __post_init__(self) -> None:
         self.poll = poller(self.bus)
         self.recv_frames = frame_reader(self.bus)
+        self.recv_records, self.send_record = record_io(self.bus)
         self.fd = descriptor(self.bus)
 
 
@@ -117,6 +131,16 @@ def frame_reader(bus: can.BusABC) -> FrameReader | None:
     if reader is None or not callable(reader) or bus.filters is not None:
         return None
     return reader
+
+
+def record_io(bus: can.BusABC) -> tuple[RecordReader | None, RecordWriter | None]:
+    """``(bus.recv_records, bus.send_record)`` where the interface has both (``unix``) and
+    the bus has no filters, else ``(None, None)``."""
+    reader = getattr(bus, "recv_records", None)
+    writer = getattr(bus, "send_record", None)
+    if not (callable(reader) and callable(writer)) or bus.filters is not None:
+        return None, None
+    return reader, writer
 
 
 def descriptor(bus: can.BusABC) -> int | None:

@@ -19,6 +19,7 @@ objects that the receiver must not modify (the CAN master does not).
 
 from __future__ import annotations
 
+import struct
 import threading
 from collections import deque
 from collections.abc import Sequence
@@ -28,6 +29,9 @@ from typing import Any
 import can
 
 from hal.can import pdo
+from hal.can.unix_wire import HEADER, encode
+
+_RPDO_WIRE = HEADER.size + 6
 
 #: Statusword answered after each controlword (bits 0-3, 5, 6 of CiA 402).
 STATUS_AFTER = {0x06: 0x0021, 0x07: 0x0023, 0x0F: 0x0027, 0x02: 0x0007}
@@ -136,3 +140,105 @@ class StubDrivesBus(can.BusABC):
         with self._ready:
             self._queue.append(_frame(pdo.SDO_TX + node, data))
             self._ready.notify_all()
+
+
+class StubRecordBus(StubDrivesBus):
+    """:class:`StubDrivesBus` that also takes and answers whole records in the ``unix``
+    wire format (:mod:`hal.can.unix_wire`), as :class:`hal.can.unix_bus.UnixBus` does
+    (``recv_records``, ``send_record``): the CAN master's record path measured alone. Each
+    SYNC's answer is one record of frames built once; what ``recv()`` returns is only the
+    SDO answers of the set-up."""
+
+    def __init__(self, *args: Any, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self._records: list[bytes] = []
+        self._tpdo1_wire = {key: encode(msg) for key, msg in self._tpdo1.items()}
+        self._tpdo2_wire = [encode(msg) for msg in self._tpdo2]
+        self._heartbeats_wire = b"".join(encode(msg) for msg in self._heartbeats)
+        #: (statuswords, muted) -> the record answering a SYNC (built once).
+        self._answers: dict[tuple[tuple[int, ...], frozenset[int] | None], bytes] = {}
+        #: Controlwords (low bytes, then high bytes) of the last cycle record taken whole.
+        self._last_words = b"-"
+        self._cycle_codecs: dict[int, struct.Struct] = {}
+
+    def recv_records(self, drain: bool = True) -> tuple[list[bytes], list[can.Message]]:
+        """The records answered since the last call, and the messages waiting."""
+        records, self._records = self._records, []
+        others: list[can.Message] = []
+        if self._queue:
+            with self._ready:
+                others += self._queue
+                self._queue.clear()
+        return records, others
+
+    def send_record(self, record: bytes | memoryview) -> None:
+        """Take the frames of ``record`` as :meth:`send` does. A master's cycle (an RPDO1
+        for every drive in node order, then a SYNC) whose controlwords are those of the
+        last one costs one slice (the answer is then the last one); otherwise it is
+        unpacked with one struct (built once per number of RPDOs), or frame by frame."""
+        size = len(record)
+        k, rest = divmod(size - HEADER.size, _RPDO_WIRE)
+        if rest == 0 and k == len(self.node_ids):
+            words = bytes(record[HEADER.size : size - HEADER.size : _RPDO_WIRE])
+            words += bytes(record[HEADER.size + 1 : size - HEADER.size : _RPDO_WIRE])
+            if words == self._last_words and record[size - HEADER.size] == pdo.SYNC:
+                self.sent += k + 1
+                self._on_sync()
+                return
+        else:
+            words = b""
+        codec = self._cycle_codecs.get(k) if rest == 0 and k >= 0 else None
+        if codec is None and rest == 0 and k >= 0:
+            codec = self._cycle_codecs[k] = struct.Struct("<" + "IBBBxdHi" * k + "IBBBxd")
+        fields = codec.unpack_from(record) if codec is not None else ()
+        if (
+            not fields
+            or fields[-5] != pdo.SYNC
+            or any(cob & 0x780 != pdo.RPDO1 for cob in fields[0:-5:7])
+        ):
+            self._send_frames(bytes(record))
+            return
+        self.sent += k + 1
+        index, status = self._node_index, self._statusword
+        nodes = []
+        for cob, cw in zip(fields[0:-5:7], fields[5:-5:7], strict=True):
+            nodes.append(cob & 0x7F)
+            if cob & 0x7F in index:
+                status[index[cob & 0x7F]] = STATUS_AFTER.get(cw & 0x8F, SWITCH_ON_DISABLED)
+        self._last_words = words if nodes == self.node_ids else b"-"
+        self._on_sync()
+
+    def _send_frames(self, data: bytes) -> None:
+        """:meth:`send_record` frame by frame."""
+        start, size = 0, len(data)
+        while start + HEADER.size <= size:
+            cob = data[start] | data[start + 1] << 8 | data[start + 2] << 16
+            length = data[start + 6]
+            body = start + HEADER.size
+            self.sent += 1
+            if cob == pdo.SYNC:
+                self._on_sync()
+            elif cob & 0x780 == pdo.RPDO1 and cob & 0x7F in self._node_index and length >= 2:
+                cw = data[body] | data[body + 1] << 8
+                self._statusword[self._node_index[cob & 0x7F]] = STATUS_AFTER.get(
+                    cw & 0x8F, SWITCH_ON_DISABLED
+                )
+            start = body + length
+        self._last_words = b"-"
+
+    def _on_sync(self) -> None:
+        self.syncs += 1
+        key = (tuple(self._statusword), frozenset(self.muted) if self.muted else None)
+        record = self._answers.get(key)
+        if record is None:
+            muted, nodes, tpdo1 = self.muted, self.node_ids, self._tpdo1_wire
+            parts = [tpdo1[k, sw] for k, sw in enumerate(self._statusword) if nodes[k] not in muted]
+            parts += [
+                frame
+                for frame, msg in zip(self._tpdo2_wire, self._tpdo2, strict=True)
+                if msg.arbitration_id & 0x7F not in muted
+            ]
+            record = self._answers[key] = b"".join(parts)
+        if self.syncs % self.heartbeat_every == 0:
+            record += self._heartbeats_wire
+        self._records.append(record)

@@ -22,6 +22,10 @@ code     name               raised when
 
 ``source`` is the drive (joint or wheel) name, or the bus name for bus faults; the
 description names the node id, the bus and what happened.
+
+:meth:`Supervisor.check` counts with one compiled call (:func:`hal.can.kernels.supervise`)
+where :func:`controller.model.jit.available`, else with NumPy (:meth:`Supervisor.tpdo`,
+:meth:`~Supervisor.heartbeats`, :meth:`~Supervisor.following`); the faults are the same.
 """
 
 from __future__ import annotations
@@ -31,7 +35,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from controller.model import jit
 from controller.model.alarms import AlarmCode
+from hal.can import kernels
 from hal.can.cia402 import State
 from hal.can.drive_profile import DriveProfile
 from hal.can.pdo import emcy_name
@@ -112,6 +118,10 @@ class Supervisor:
         self.last_heartbeat = np.zeros(n)
         #: Heartbeat loss already reported (once per episode).
         self.reported = np.zeros(n, dtype=bool)
+        #: Count with the compiled kernel (:func:`hal.can.kernels.supervise`).
+        self.compiled = jit.available()
+        self._flags = np.zeros(n, dtype=np.int64)
+        self._windows = np.ascontiguousarray(windows, dtype=float)
 
     def where(self, i: int) -> str:
         return f"node {self.node_ids[i]} on bus {self.buses[i]}"
@@ -185,17 +195,16 @@ class Supervisor:
         faults = []
         for i in np.flatnonzero(late):
             self.tpdo_reported[i] = True
-            time = self.tpdo_timeout[i]
-            faults.append(
-                HardwareFault(
-                    int(AlarmCode.TPDO_TIMEOUT),
-                    self.names[i],
-                    f"{self.where(int(i))}: no TPDO1 (statusword, position) for "
-                    f"{missed[i]} cycles"
-                    + (f" ({(now - self.last_tpdo[i]) * 1e3:.0f} ms)" if time > 0 else ""),
-                )
-            )
+            faults.append(self._tpdo_fault(int(i), now))
         return faults
+
+    def _tpdo_fault(self, i: int, now: float) -> HardwareFault:
+        return HardwareFault(
+            int(AlarmCode.TPDO_TIMEOUT),
+            self.names[i],
+            f"{self.where(i)}: no TPDO1 (statusword, position) for {self.missed[i]} cycles"
+            + (f" ({(now - self.last_tpdo[i]) * 1e3:.0f} ms)" if self.tpdo_timeout[i] > 0 else ""),
+        )
 
     def heartbeats(self, now: float) -> list[HardwareFault]:
         """Faults for drives whose last heartbeat is older than the consumer time."""
@@ -206,17 +215,18 @@ class Supervisor:
             return []
         faults = []
         for i in np.flatnonzero(late):
-            age = now - self.last_heartbeat[i]
-            faults.append(
-                HardwareFault(
-                    int(AlarmCode.HEARTBEAT_LOST),
-                    self.names[i],
-                    f"{self.where(int(i))}: no heartbeat for {age * 1e3:.0f} ms "
-                    f"(consumer time {self.heartbeat_timeout * 1e3:.0f} ms)",
-                )
-            )
+            faults.append(self._heartbeat_fault(int(i), now))
             self.reported[i] = True
         return faults
+
+    def _heartbeat_fault(self, i: int, now: float) -> HardwareFault:
+        age = now - self.last_heartbeat[i]
+        return HardwareFault(
+            int(AlarmCode.HEARTBEAT_LOST),
+            self.names[i],
+            f"{self.where(i)}: no heartbeat for {age * 1e3:.0f} ms "
+            f"(consumer time {self.heartbeat_timeout * 1e3:.0f} ms)",
+        )
 
     def following(self, error: np.ndarray, active: np.ndarray) -> list[HardwareFault]:
         """Count cycles with |error| [SI] above the window on ``active`` drives."""
@@ -226,34 +236,99 @@ class Supervisor:
             return []
         self.outside += 1
         self.outside[~over] = 0
-        faults = []
-        for i in np.flatnonzero(self.outside == self.following_cycles):
-            faults.append(
-                HardwareFault(
-                    int(AlarmCode.FOLLOWING_ERROR),
-                    self.names[i],
-                    f"{self.where(int(i))}: following error {float(error[i]):.4g} exceeds the "
-                    f"window {float(self.windows[i]):.4g} for {self.following_cycles} cycles",
-                )
-            )
-        return faults
+        return [
+            self._following_fault(int(i), float(error[i]))
+            for i in np.flatnonzero(self.outside == self.following_cycles)
+        ]
+
+    def _following_fault(self, i: int, error: float) -> HardwareFault:
+        return HardwareFault(
+            int(AlarmCode.FOLLOWING_ERROR),
+            self.names[i],
+            f"{self.where(i)}: following error {error:.4g} exceeds the "
+            f"window {float(self.windows[i]):.4g} for {self.following_cycles} cycles",
+        )
 
     def check(
         self,
         now: float,
         fresh: np.ndarray,
         states: Sequence[State],
-        statuswords: Sequence[int],
+        statuswords: Sequence[int] | np.ndarray,
         active: bool,
         all_enabled: bool,
         any_faulted: bool,
-        error: np.ndarray,
+        position: np.ndarray,
+        setpoint: np.ndarray,
     ) -> list[HardwareFault]:
         """Every check of one cycle at ``now`` [s]: TPDO timeouts (``fresh``), heartbeats,
         drive states (``any_faulted``; with ``active`` every drive must be Operation
-        enabled), following ``error`` [SI] of the enabled drives when ``active``."""
+        enabled), following error ``position − setpoint`` [SI] of the enabled drives when
+        ``active``."""
+        if self.compiled:
+            return self._check_compiled(
+                now, fresh, states, statuswords, active, all_enabled, any_faulted, position,
+                setpoint,
+            )  # fmt: skip
         faults = self.tpdo(fresh, now)
         faults += self.heartbeats(now)
+        faults += self._states(states, statuswords, active, all_enabled, any_faulted)
+        if active:
+            if not all_enabled:
+                fresh = fresh & self._enabled(states)
+            faults += self.following(position - setpoint, fresh)
+        return faults
+
+    def _check_compiled(
+        self,
+        now: float,
+        fresh: np.ndarray,
+        states: Sequence[State],
+        statuswords: Sequence[int] | np.ndarray,
+        active: bool,
+        all_enabled: bool,
+        any_faulted: bool,
+        position: np.ndarray,
+        setpoint: np.ndarray,
+    ) -> list[HardwareFault]:
+        """:meth:`check` with the counting in one kernel call."""
+        mask = fresh if not active or all_enabled else fresh & self._enabled(states)
+        flags = self._flags
+        found = kernels.supervise(
+            now, fresh, self.missed, self.tpdo_timeout_cycles, self.last_tpdo,
+            self.tpdo_timeout, self.tpdo_reported, self.last_heartbeat,
+            self.heartbeat_timeout, self.reported, active, mask, position, setpoint,
+            self._windows, self.outside, self.following_cycles, flags,
+        )  # fmt: skip
+        if not found and not any_faulted and (all_enabled or not active):
+            return []
+        faults = [self._tpdo_fault(int(i), now) for i in np.flatnonzero(flags & kernels.LATE_TPDO)]
+        faults += [
+            self._heartbeat_fault(int(i), now)
+            for i in np.flatnonzero(flags & kernels.LATE_HEARTBEAT)
+        ]
+        faults += self._states(states, statuswords, active, all_enabled, any_faulted)
+        faults += [
+            self._following_fault(int(i), float(position[i] - setpoint[i]))
+            for i in np.flatnonzero(flags & kernels.FOLLOWING)
+        ]
+        return faults
+
+    @staticmethod
+    def _enabled(states: Sequence[State]) -> np.ndarray:
+        return np.array([s is State.OPERATION_ENABLED for s in states])
+
+    def _states(
+        self,
+        states: Sequence[State],
+        statuswords: Sequence[int] | np.ndarray,
+        active: bool,
+        all_enabled: bool,
+        any_faulted: bool,
+    ) -> list[HardwareFault]:
+        """Faults of drives in Fault (reaction), and with ``active`` of drives not
+        Operation enabled."""
+        faults: list[HardwareFault] = []
         if any_faulted or (active and not all_enabled):
             for i, state in enumerate(states):
                 fault = self.state(i, state, statuswords[i])
@@ -267,10 +342,6 @@ class Supervisor:
                             f"{self.where(i)}: left operation enabled (state: {state.value})",
                         )
                     )
-        if active:
-            if not all_enabled:
-                fresh = fresh & np.array([s is State.OPERATION_ENABLED for s in states])
-            faults += self.following(error, fresh)
         return faults
 
     @staticmethod

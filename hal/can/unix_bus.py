@@ -102,7 +102,7 @@ class UnixBus(can.BusABC):
         self.receive_own_messages = receive_own_messages
         self.hold_pdos = bool(hold_pdos)
         #: Frames held (``hold_pdos``) and their total length [bytes].
-        self._held: list[bytes] = []
+        self._held: list[bytes | memoryview] = []
         self._held_size = 0
         #: Frames a peer could not take (its queue was full).
         self.dropped = 0
@@ -219,6 +219,40 @@ class UnixBus(can.BusABC):
                 ]
         return out
 
+    def recv_records(self, drain: bool = True) -> tuple[list[bytes], list[can.Message]]:
+        """Records waiting, without waiting: ``(records, others)``, each record as received
+        (frames in the wire format of :mod:`hal.can.unix_wire`, for a caller that decodes
+        them itself: the CAN master's compiled path, :mod:`hal.can.cycle`), ``others`` the
+        frames :meth:`recv` had read but not returned. Filters do not apply. ``drain``
+        as :meth:`recv_frames`."""
+        if self._held:  # before reading the answers, the question goes out
+            self.flush()
+        others: list[can.Message] = []
+        if self._pending:
+            others += self._pending
+            self._pending.clear()
+        if not drain:
+            records: list[bytes] = []
+            gone = []
+            for fd, peer in self._peers.items():
+                try:  # (inline: once per peer and cycle of a master)
+                    record = peer.recv(MAX_RECORD)
+                except BlockingIOError:
+                    continue
+                except OSError:
+                    record = b""
+                if record:
+                    records.append(record)
+                else:  # the peer closed its end
+                    gone.append(fd)
+            for fd in gone:
+                self._forget(fd)
+            return records or self._fill(0.0), others
+        records = []
+        while more := self._fill(0.0):
+            records += more
+        return records, others
+
     def recv_frames(self, drain: bool = True) -> tuple[list[tuple[int, bytes]], list[can.Message]]:
         """Frames waiting, without waiting: ``(classic, others)``, the classic 11-bit data
         frames as ``(identifier, data)`` without a :class:`can.Message` each (a master's
@@ -232,29 +266,29 @@ class UnixBus(can.BusABC):
         ``epoll``; when no peer had one, one ``epoll`` round, which also accepts new
         participants): for a caller that waits on :meth:`fileno`, readable while more
         waits (``select`` over several buses at once: one system call for all of them)."""
-        if self._held:  # before reading the answers, the question goes out
-            self.flush()
+        records, others = self.recv_records(drain)
         classic: list[tuple[int, bytes]] = []
-        others: list[can.Message] = []
-        if self._pending:
-            others += self._pending
-            self._pending.clear()
-        if not drain:
-            records: list[bytes] = []
-            gone = []
-            for fd, peer in self._peers.items():
-                record = _read_record(peer)
-                if record:
-                    records.append(record)
-                elif record is not None:  # the peer closed its end
-                    gone.append(fd)
-            for fd in gone:
-                self._forget(fd)
-            self._split(records or self._fill(0.0), classic, others)
-            return classic, others
-        while records := self._fill(0.0):
-            self._split(records, classic, others)
+        self._split(records, classic, others)
         return classic, others
+
+    def send_record(self, record: bytes | memoryview) -> None:
+        """Send whole frames in the wire format (:mod:`hal.can.unix_wire`, classic 11-bit
+        data frames, at most :data:`~hal.can.unix_wire.MAX_RECORD` bytes with what is held)
+        to every peer as one record, after the frames held: a sender that encodes its
+        frames itself (the CAN master's RPDOs and SYNC of a bus, :mod:`hal.can.cycle`)."""
+        if self._held:
+            self._send_record(record)
+            return
+        gone = None
+        for fd, peer in self._peers.items():
+            try:
+                peer.send(record)
+            except BlockingIOError:
+                self._dropped()
+            except OSError:  # the peer went away
+                gone = [*(gone or []), fd]
+        for fd in gone or ():
+            self._forget(fd)
 
     def shutdown(self) -> None:
         if self._held:
@@ -279,7 +313,7 @@ class UnixBus(can.BusABC):
         self._held.append(frame)
         self._held_size += len(frame)
 
-    def _send_record(self, frame: bytes) -> None:
+    def _send_record(self, frame: bytes | memoryview) -> None:
         """The frames held, then ``frame`` (may be empty), as one record to every peer."""
         if self._held:
             if self._held_size + len(frame) > MAX_RECORD:

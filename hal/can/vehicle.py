@@ -70,6 +70,17 @@ class VehicleMapping:
         self.command_pose = np.zeros(3)
         self.wheel_targets = np.zeros(n)
 
+    @classmethod
+    def empty(cls) -> VehicleMapping:
+        """A mapping of no wheels: its arrays stand in where a robot has no base (the CAN
+        master's compiled kernels take them either way)."""
+        self = cls.__new__(cls)
+        self.matrix = np.zeros((0, 3))
+        self.inverse = np.zeros((3, 0))
+        self.pose, self.velocity, self.command_pose = np.zeros(3), np.zeros(3), np.zeros(3)
+        self._wheels, self.wheel_targets = np.zeros(0), np.zeros(0)
+        return self
+
     def start(self, wheels: np.ndarray, pose: np.ndarray | None = None) -> None:
         """Start odometry at ``pose`` (default: the origin) with wheels at ``wheels`` [rad]."""
         if pose is not None:
