@@ -447,7 +447,7 @@ def test_compiled_elbow_equals_the_python_swivel(monkeypatch: pytest.MonkeyPatch
     from controller.model import jit
 
     if not jit.available():
-        pytest.skip("numba not installed")
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
     rng = np.random.default_rng(12)
     for robot_id in ("smartpal5", "seednoid", "pa10"):
         compiled = kinematics(robot_id)

@@ -191,7 +191,7 @@ def test_the_compiled_box_equals_the_numpy_one():
     from controller.model import jit
 
     if not jit.available():
-        pytest.skip("numba not installed")
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
     kin = kinematics("smartpal5")  # its vehicle joints have unbounded positions
     compiled, plain = JointBox(kin, 0.001), JointBox(kin, 0.001)
     plain._compiled = False
@@ -225,7 +225,7 @@ def test_the_compiled_axis_rows_equal_the_python_ones():
     from controller.model import jit
 
     if not jit.available():
-        pytest.skip("numba not installed")
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
     kin = kinematics("smartpal5")
     axes = available_axes(kin)
     compiled, plain = AxisRows(kin, axes, 0.001), AxisRows(kin, axes, 0.001)
