@@ -306,6 +306,29 @@ def test_the_early_gateway_is_the_one_configured_and_dies_with_a_failed_start(
     assert gateway.returncode is not None  # killed and reaped
 
 
+def test_the_gateway_answers_servo_off_before_the_loop_runs(short_dir: Path):
+    """imotiond is ready (READY=1, the "ready" line) once its gateway listens, before the
+    loop's first cycle: the snapshot the gateway reads then already shows the hardware it
+    configured (power_on_at_start), ServoOff, not the Unpowered of the controller's first
+    snapshot (a HIL run at load ~3 read Unpowered in that window)."""
+    cfg = load_config(
+        None,
+        {"robot": "pa10", "hal": "ideal", "listen": f"unix:{short_dir / 'api.sock'}"},
+        ["realtime.enabled=false"],
+    )
+    d = Daemon(cfg)
+    try:
+        address = d.start_gateway_process()  # what imotiond waits for before READY=1
+        assert d.controller.core.cycles == 0  # the loop has not run
+        with grpc.insecure_channel(address) as channel:
+            reply = pb_grpc.IntegratedMotionStub(channel).GetState(
+                pb.GetStateRequest(), timeout=START_BOUND
+            )
+        assert reply.status_id == S.SERVO_OFF, reply
+    finally:
+        d.close()
+
+
 # ----------------------------------------------------------------------------- refusals
 def _refused(*args: str) -> Imotiond:
     d = _run(*args)

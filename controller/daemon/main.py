@@ -163,6 +163,10 @@ class Daemon:
             # After the controller is built: its models load in C calls that hold the GIL
             # for hundreds of ms, which would starve the CAN master's heartbeat thread.
             self.hw.configure()
+            # The controller's first snapshot showed the hardware unconfigured (Unpowered);
+            # the gateway reads the snapshot and answers before the loop's first cycle
+            # (READY=1 comes first): show it configured (ServoOff) from the start.
+            self.controller.publish()
         if cfg.loop.stats_file is not None:
             loop = self.controller.loop
             loop.stats = CycleLog(loop.period, loop.stats.capacity)
