@@ -302,9 +302,9 @@ class Kinematics:
     def control_point_world(self, side: RightLeft) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The control point's ``6 x nv`` Jacobian in world axes (linear, angular), its
         rotation and translation [m] in the world: what :meth:`pose` and :meth:`jacobian`
-        rotate into the original frame (:attr:`original_arrays`). Read-only, valid until
-        the next :meth:`update` (compiled, one call on the shared placements of
-        :meth:`_place`; else read from Pinocchio)."""
+        rotate into the original frame (:attr:`original_arrays`). Not to be modified, and
+        valid until the next :meth:`update` (compiled: one call on the shared placements of
+        :meth:`_place`, into buffers kept for the arm; else read from Pinocchio)."""
         world = self._cp_world.get(side)
         if world is not None:
             chain = self._chain
@@ -427,9 +427,6 @@ class Kinematics:
                 self._update_elbows()
             return self._elbow_rows[self._elbow_index[side]]
         cached = self._elbow_jac_cache.get(side)
-        if cached is None:
-            self._swivel(side)  # the compiled path computes the row with the angle
-            cached = self._elbow_jac_cache.get(side)
         if cached is None:
             cached = self._elbow_jac_cache[side] = self._compute_elbow_jacobian(side)
         return cached
