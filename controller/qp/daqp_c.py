@@ -168,8 +168,8 @@ class Workspace:
     """One DAQP workspace for problems of ``n`` variables (bounded), ``m`` two-sided rows
     and ``p`` equalities, with the problem's arrays, x and λ of its own.
 
-    :meth:`load`, then :meth:`setup` and :meth:`solve` (cold) or, while :attr:`ready`,
-    :meth:`update_and_solve` (warm). Not thread-safe.
+    :meth:`load`, then :meth:`solve_loaded`: :meth:`setup` and :meth:`solve` (cold) or,
+    while :attr:`ready`, :meth:`update_and_solve` (warm). Not thread-safe.
     """
 
     def __init__(self, n: int, m: int, p: int, primal_tol: float, iter_limit: int):
@@ -240,6 +240,20 @@ class Workspace:
     def solve(self) -> None:
         """Solve the set-up problem (exit flag and iterations in :attr:`result`)."""
         self._solve(self._result_at, self._work)
+
+    def solve_loaded(self) -> bool:
+        """Solve the loaded problem: warm (:meth:`update_and_solve`) while :attr:`ready`,
+        else cold (:meth:`setup`, :meth:`solve`). False when DAQP refused the problem (the
+        next call sets up again); the exit flag and iterations are in :attr:`result`."""
+        if self.ready:
+            if self.update_and_solve() < 0:
+                self.ready = False
+                return False
+            return True
+        if self.setup() < 0:
+            return False
+        self.solve()
+        return True
 
     def update_and_solve(self) -> int:
         """Take the loaded problem into the set-up workspace (warm: its working set is

@@ -199,12 +199,7 @@ class DaqpSolver(QPSolver):
             return None
         x, _, flag, info = model.solve()
         self.iterations = info["iterations"]
-        if flag > 0 and (not self.guard or math.isfinite(x.dot(x))):  # x·x: NaN/inf at once
-            return x
-        self._model = None  # the working set is no start for the next cycle
-        if flag == _DAQP_ITER_LIMIT and within_limits(x, C, lo, hi, lb, ub, A, b):
-            return x
-        return None
+        return self._result(x, flag, C, lo, hi, lb, ub, A, b)
 
     def _solve_c(
         self,
@@ -223,21 +218,28 @@ class DaqpSolver(QPSolver):
         ``daqp.Model``; the minimiser is the workspace's own array)."""
         eq_rows, eq_rhs = self._no_eq if A is None or b is None else (A, b)
         work.load(H, g, lb, ub, C, lo, hi, eq_rows, eq_rhs)
-        if work.ready:
-            if work.update_and_solve() < 0:
-                work.ready = False
-                return None
-        else:
-            if work.setup() < 0:
-                work.ready = False
-                return None
-            work.solve()
-        result, x = work.result, work.x
-        self.iterations = result.iter
-        flag = result.exitflag
-        if flag > 0:
+        if not work.solve_loaded():
+            return None
+        self.iterations = work.result.iter
+        return self._result(work.x, work.result.exitflag, C, lo, hi, lb, ub, A, b)
+
+    def _result(
+        self,
+        x: np.ndarray,
+        flag: int,
+        C: np.ndarray,
+        lo: np.ndarray,
+        hi: np.ndarray,
+        lb: np.ndarray,
+        ub: np.ndarray,
+        A: np.ndarray | None,
+        b: np.ndarray | None,
+    ) -> np.ndarray | None:
+        """The minimiser of a solve that ended with DAQP's exit ``flag``, or None; after a
+        failure the next solve starts cold."""
+        if flag > 0 and (not self.guard or math.isfinite(x.dot(x))):  # x·x: NaN/inf at once
             return x
-        work.ready = False  # the working set is no start for the next cycle
+        self.reset()  # the working set is no start for the next cycle
         if flag == _DAQP_ITER_LIMIT and within_limits(x, C, lo, hi, lb, ub, A, b):
             return x
         return None
