@@ -44,7 +44,7 @@ from typing import NamedTuple
 import numpy as np
 
 from controller.model.jit import jit
-from controller.model.joint_chain import compose, forward
+from controller.model.joint_chain import compose
 
 #: Distance [m] of the elbow from the shoulder-wrist line below which the gradient is clamped.
 MIN_OFFSET = 1e-6
@@ -224,32 +224,6 @@ def elbow_kernel(
             total += (qz * gx - qx * gz) * jac[4, col]
             total += (qx * gy - qy * gx) * jac[5, col]
         row[col] = total
-
-
-@jit
-def elbow_rows(
-    q: np.ndarray,
-    rows: np.ndarray,
-    values: np.ndarray,
-    joint_int: np.ndarray,
-    joint_frame: np.ndarray,
-    joint_world: np.ndarray,
-    columns: np.ndarray,
-    column_kind: np.ndarray,
-    frame_joint: np.ndarray,
-    frame_local: np.ndarray,
-    directions: np.ndarray,
-    jac: np.ndarray,
-    arm_columns: np.ndarray,
-    counts: np.ndarray,
-    masks: np.ndarray,
-) -> None:
-    """Every arm's elbow at ``q`` [rad, m] in one call, without reading placements back from
-    Pinocchio: the joints' placements (:func:`~controller.model.joint_chain.forward`, its
-    five arrays after ``rows`` and ``values``), then :func:`elbows_at`."""
-    forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
-    elbows_at(rows, values, joint_world, frame_joint, frame_local, directions, jac, arm_columns,
-              counts, masks)  # fmt: skip
 
 
 @jit

@@ -4,8 +4,9 @@ Reading placements back from Pinocchio costs ~1 µs per frame in Python (each ac
 SE3 object and its arrays), more than computing them: :func:`forward` recomputes every
 joint's world placement and Jacobian column of a configuration in one compiled call
 (~1 µs for SmartPal V's 27 joints). The collision kernels
-(:mod:`controller.model.collision_kernel`) and the elbow angles
-(:func:`controller.model.elbow.elbow_rows`) read them.
+(:mod:`controller.model.collision_kernel`), the elbow angles
+(:func:`controller.model.elbow.elbows_at`) and the control points (:func:`frame_world`,
+through :class:`controller.model.kinematics.Kinematics`) read them.
 
 Placements are stored as 4 x 3 arrays: rows 0-2 the rotation, row 3 the translation [m].
 Only 1-dof revolute and prismatic joints are supported (:class:`Unsupported` otherwise);

@@ -30,6 +30,8 @@ left), a control point's placement and Jacobian from one call of
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import pinocchio as pin
 
@@ -39,6 +41,20 @@ from controller.model.elbow import Swivel, elbows_at, swivel
 from controller.model.joint_chain import JointChain, Unsupported, frame_world
 from controller.model.robot import Robot
 from controller.vocabulary import FrameType, LumbarAxis, RightLeft, UnitType
+
+
+class _FrameBuffers(NamedTuple):
+    """A frame's arguments and outputs of :func:`frame_world`: its ``joint``, placement on
+    it (``local``), the velocity columns that move it (``support``), and the Jacobian and
+    placement it writes (with views of the placement's rotation and translation)."""
+
+    joint: int
+    local: np.ndarray
+    support: np.ndarray
+    jac: np.ndarray
+    placement: np.ndarray
+    rotation: np.ndarray
+    translation: np.ndarray
 
 
 class Kinematics:
@@ -103,8 +119,8 @@ class Kinematics:
         self._lumbar_rows: dict[LumbarAxis, np.ndarray] = {}
         self.model = model
         self.data = model.createData()
-        #: With compiled kernels: the arguments of :func:`~controller.model.elbow.elbow_rows`
-        #: after its outputs, the arms in their order, and its values (angle, offset) per arm.
+        #: With compiled kernels: the arguments of :func:`~controller.model.elbow.elbows_at`
+        #: after the placements, the arms in their order, and their (angle, offset).
         self._elbow_args: tuple[np.ndarray, ...] | None = None
         self._elbow_sides = list(self._elbow_frames)
         self._elbow_values = np.zeros((len(self._elbow_sides), 2))
@@ -130,18 +146,16 @@ class Kinematics:
             except Unsupported:
                 self._chain = None
         self._placed = False
-        #: Per arm, compiled: the control point's Jacobian and placement buffers (and views
-        #: of its rotation and translation), its joint, placement on it and support columns.
-        self._cp_world: dict[RightLeft, tuple[np.ndarray, ...]] = {}
-        self._cp_joint = {side: model.frames[f].parentJoint for side, f in self._cp_frame.items()}
+        #: Per arm, compiled: the control point's buffers for :func:`frame_world`.
+        self._cp_world: dict[RightLeft, _FrameBuffers] = {}
         if self._chain is not None:
             for side, fid in self._cp_frame.items():
                 joint = model.frames[fid].parentJoint
                 support = [model.joints[j].idx_v for j in model.supports[joint] if j > 0]
                 placement = np.zeros((4, 3))
-                self._cp_world[side] = (
+                self._cp_world[side] = _FrameBuffers(
+                    joint, np.zeros((4, 3)), np.array(support, dtype=np.int64),
                     np.zeros((6, self.nv)), placement, placement[:3], placement[3],
-                    np.array(support, dtype=np.int64), np.zeros((4, 3)),
                 )  # fmt: skip
                 self._set_cp_local(side)
             if self._elbow_sides:
@@ -266,7 +280,7 @@ class Kinematics:
     def _set_cp_local(self, side: RightLeft) -> None:
         """The compiled path's copy of the control point's placement on its joint."""
         placement = self.model.frames[self._cp_frame[side]].placement
-        local = self._cp_world[side][5]
+        local = self._cp_world[side].local
         local[:3] = placement.rotation
         local[3] = placement.translation
 
@@ -305,17 +319,16 @@ class Kinematics:
         rotate into the original frame (:attr:`original_arrays`). Not to be modified, and
         valid until the next :meth:`update` (compiled: one call on the shared placements of
         :meth:`_place`, into buffers kept for the arm; else read from Pinocchio)."""
-        world = self._cp_world.get(side)
-        if world is not None:
+        cp = self._cp_world.get(side)
+        if cp is not None:
             chain = self._chain
             assert chain is not None
             self._place()
-            jac, placement, rotation, translation, support, local = world
             frame_world(
-                chain.joint_world, chain.columns, chain.column_kind, self._cp_joint[side], local,
-                support, jac, placement,
+                chain.joint_world, chain.columns, chain.column_kind, cp.joint, cp.local,
+                cp.support, cp.jac, cp.placement,
             )  # fmt: skip
-            return jac, rotation, translation
+            return cp.jac, cp.rotation, cp.translation
         fid = self._cp_frame[side]
         jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
         placement = self._oMf[fid]
