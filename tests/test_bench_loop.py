@@ -61,11 +61,16 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
     assert "per cycle [us]" in out and "median of 2 runs" in out
     assert "motion start, thread CPU" in out
     assert "collision rows active in" in out and "by segment" in out
+    floor = result["machine_floor"]  # as long as a run by default
+    assert set(floor) == {"late", "wake_p99_us", "wake_max_us", "fifo"}
+    assert floor["late"] >= 0 and 0 <= floor["wake_p99_us"] <= floor["wake_max_us"]
+    assert "machine floor: a bare SCHED_FIFO sleep loop" in out
 
 
 def test_bench_loop_without_the_breakdown_still_reports_the_cycle():
-    lines, result = run_tool("bench_loop.py", *SHORT, "--no-breakdown")
+    lines, result = run_tool("bench_loop.py", *SHORT, "--no-breakdown", "--floor-seconds", "0")
     out = "\n".join(lines)
+    assert result["machine_floor"] is None and "machine floor" not in out
     (run,) = result["per_run"]
     assert run["cycles"] == 100 and run["pieces_us"] == {}
     assert all("pieces_p50" not in seg for seg in run["segments"].values())

@@ -55,9 +55,9 @@ same paced clients at a constant-reply grpcio server shaped like the gateway
 cost and latency in the same minute (``<mode>.floor``). ``--no-mover`` runs without the move;
 ``--burn-us US`` adds a SCHED_FIFO thread (priority 1) busy US of every loop period, a
 stand-in for what a running move adds to the loop's CPU: with ``--no-mover`` it tells the
-move's cost to the cores from the gateway's own work during a move. For
-reference it first measures the machine's floor: a bare SCHED_FIFO thread that only sleeps
-to 1 ms deadlines (on shared virtual cores even that is late now and then).
+move's cost to the cores from the gateway's own work during a move. For reference it first
+measures the machine's floor (tools/machine_floor.py): a bare SCHED_FIFO thread that only
+sleeps to 1 ms deadlines (on shared virtual cores even that is late now and then).
 """
 
 from __future__ import annotations
@@ -76,8 +76,10 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import grpc
+import machine_floor
 import numpy as np
 
 from controller.rpc import imotion_pb2 as pb
@@ -174,34 +176,6 @@ def client_main(address: str, threads: int, seconds: float, hz: float) -> int:
     return 0
 
 
-def bare_main(rate: float, seconds: float) -> int:
-    """The machine's floor: a SCHED_FIFO thread that only sleeps to its deadlines (no
-    Python work, no other thread). Prints {"late", "wake_p99_us", "wake_max_us", "fifo"}."""
-    fifo = True
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(80))
-    except (OSError, AttributeError):
-        fifo = False
-    period = round(1e9 / rate)
-    n = max(1, int(rate * seconds))
-    wake = np.zeros(n)
-    t0 = time.monotonic_ns()
-    for k in range(n):
-        deadline = t0 + (k + 1) * period
-        now = time.monotonic_ns()
-        if deadline > now:
-            time.sleep((deadline - now) / 1e9)
-        wake[k] = (time.monotonic_ns() - deadline) / 1e3
-    result = {
-        "late": int(np.count_nonzero(wake > 0.5 * period / 1e3)),
-        "wake_p99_us": round(float(np.percentile(wake, 99.0)), 1),
-        "wake_max_us": round(float(wake.max()), 1),
-        "fifo": fifo,
-    }
-    print(json.dumps(result), flush=True)
-    return 0
-
-
 def burn_main(busy_us: float, rate: float, seconds: float) -> int:
     """A stand-in for a running move's cost to the loop: a SCHED_FIFO thread (priority 1,
     below the loop's) busy ``busy_us`` of every period for ``seconds`` (0: until killed).
@@ -234,13 +208,6 @@ def start_burn(busy_us: float, rate: float) -> subprocess.Popen[str]:
     cmd = [sys.executable, __file__, "--burn", f"{busy_us:g}", "--rate", f"{rate:g}"]
     cmd += ["--seconds", "0"]
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, text=True, cwd=ROOT)
-
-
-def run_bare(rate: float, seconds: float) -> dict[str, Any]:
-    cmd = [sys.executable, __file__, "--bare", "--rate", f"{rate:g}", "--seconds", f"{seconds:g}"]
-    out = subprocess.run(cmd, capture_output=True, text=True, timeout=seconds + 60, cwd=ROOT)
-    lines = out.stdout.strip().splitlines()
-    return dict(json.loads(lines[-1])) if lines else {"error": out.stderr.strip()[-300:]}
 
 
 # ---------------------------------------------------------------------- the daemon side
@@ -766,7 +733,6 @@ def main() -> int:
     parser.add_argument("--keep", type=Path, help="keep the daemons' logs and stats files here")
     parser.add_argument("--warmup", type=float, default=2.0, help="[s] before measuring")
     parser.add_argument("--client", metavar="ADDRESS", help=argparse.SUPPRESS)
-    parser.add_argument("--bare", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--threads", type=int, default=8, help=argparse.SUPPRESS)
     parser.add_argument("--hz", type=float, default=0.0, help=argparse.SUPPRESS)
     parser.add_argument(
@@ -807,15 +773,13 @@ def main() -> int:
         return client_main(args.client, args.threads, args.seconds, args.hz)
     if args.burn is not None:
         return burn_main(args.burn, args.rate, args.seconds)
-    if args.bare:
-        return bare_main(args.rate, args.seconds)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
     bad = [m for m in modes if m not in ("process", "thread")]
     if bad or args.procs < 1 or args.clients < 1:
         print(f"--modes: {bad} not in process, thread (or --procs/--clients < 1)", file=sys.stderr)
         return 2
     print("measuring the machine's floor (a bare SCHED_FIFO sleep loop) ...", flush=True)
-    bare = run_bare(args.rate, args.seconds)
+    bare = machine_floor.measure(args.rate, args.seconds)
     results = []
     with tempfile.TemporaryDirectory(prefix="bench_clients-") as tmp:
         work = Path(tmp)

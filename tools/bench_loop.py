@@ -4,7 +4,7 @@
 Usage: python tools/bench_loop.py [--robot smartpal5] [--rate 1000] [--seconds 60]
                                   [--runs 1] [--no-realtime] [--no-breakdown]
                                   [--planner process|thread] [--gc slack|automatic]
-                                  [--spread-seconds 5] [--loop-cpus 1]
+                                  [--spread-seconds 5] [--loop-cpus 1] [--floor-seconds S]
 
 The mix repeats: hand line out and back, elbow swing with the hand held, joint PTP out and
 back, waist bend with the hands held, vehicle out and back, both hands towards each other
@@ -40,7 +40,14 @@ is the machine's own spread for identical work (on this shared 2-core VM p99/p50
 
 The breakdown wraps the pieces with timers from outside (nothing in the core knows): about
 1 µs of overhead per piece, included in the compute time; ``--no-breakdown`` leaves them out
-(the compute time as the daemon has it, no per-piece figures).
+(the compute time as the daemon has it, no per-piece figures). The benchmark's own booking
+of each cycle (its row of figures, the collision shares) runs in the loop's slack, after the
+loop measured the step, as the garbage collector does: it is not the controller's work.
+
+Last, the machine's floor (:mod:`machine_floor`, ``--floor-seconds``, default as long as a
+run): a bare SCHED_FIFO thread sleeping to the same deadlines, nothing else. On shared
+virtual cores even it wakes late by more than half a period now and then (the host runs
+something else on the core): the loop's late cycles are read against it.
 """
 
 from __future__ import annotations
@@ -62,6 +69,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
+import machine_floor  # noqa: E402
 import numpy as np  # noqa: E402
 from loop_mix import ARMS_CLOSE, WorkerLineCheck, arm_pairs, script, segments  # noqa: E402
 
@@ -391,15 +399,32 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             idle.set()
         publish()
         compute, cpu = time.perf_counter_ns() - t0, time.thread_time_ns() - c0
+        last[:] = (compute, cpu, start_cpu, segment["now"])
+        return core.state != CoreState.ALARM
+
+    last: list[int] = []  # the step's figures, booked after it (outside its compute time)
+
+    def book() -> None:
+        """The last step's row of the breakdown and the collision figures: the benchmark's
+        own work, after the loop measured the step (the daemon has none of it)."""
+        if not last:
+            return
+        compute, cpu, start_cpu, now = last
+        last.clear()
         n_rows, between = 0, False
         if collision is not None and arm_rows is not None:
             n_rows = len(collision.pairs)
-            if segment["now"] == close:
+            if now == close:
                 between = bool(n_rows and arm_rows[collision.pairs].any())
                 d = collision.distances.distances[arm_rows]
                 closest["arms"] = min(closest["arms"], float(d.min(initial=math.inf)))
-        breakdown.end_cycle(compute, cpu, n_rows, between, segment["now"], start_cpu)
-        return core.state != CoreState.ALARM
+        breakdown.end_cycle(compute, cpu, n_rows, between, now, start_cpu)
+
+    def slack(left_ns: int) -> None:
+        t0 = time.perf_counter_ns()
+        book()
+        if collector is not None:  # the garbage collector gets what the booking left
+            collector(left_ns - (time.perf_counter_ns() - t0))
 
     thread = threading.Thread(target=planner, daemon=True)
     thread.start()
@@ -410,7 +435,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         step,
         realtime=not args.no_realtime,
         stats_capacity=capacity,
-        slack=collector,
+        slack=slack,
         cpus=args.loop_cpus,
     )
     runtime = tempfile.TemporaryDirectory(prefix="bench-loop-")
@@ -424,6 +449,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     finally:
         if collector is not None:
             collector.stop()
+    book()  # the last step's (the loop ended before its slack)
     finished.set()
     thread.join()
     publisher.close()
@@ -597,6 +623,13 @@ def main() -> int:
         help="pin the loop thread to these CPUs (comma-separated), as realtime.loop_cpus "
         "does in the daemon",
     )
+    parser.add_argument(
+        "--floor-seconds",
+        type=float,
+        default=None,
+        help="after the runs, the machine's floor (tools/machine_floor.py: a bare SCHED_FIFO "
+        "thread sleeping to the same deadlines) this long [s] (default: --seconds; 0: skip)",
+    )
     args = parser.parse_args()
     if args.runs < 1:
         parser.error("--runs must be >= 1")
@@ -627,12 +660,23 @@ def main() -> int:
             f"{median['late_by_more_than_half_period']:g}, overruns {median['overruns']:g}; "
             f"load at the starts {[r['load'][0] for r in runs]}"
         )
+    floor_seconds = args.seconds if args.floor_seconds is None else args.floor_seconds
+    floor = machine_floor.measure(args.rate, floor_seconds) if floor_seconds > 0 else None
+    if floor is not None:
+        print(
+            f"machine floor: a bare SCHED_FIFO sleep loop at {args.rate:g} Hz for "
+            f"{floor_seconds:g} s (fifo {floor.get('fifo')}): late by > half a period "
+            f"{floor.get('late')}, wake p99 {floor.get('wake_p99_us')} us, max "
+            f"{floor.get('wake_max_us')} us (the loop's late cycles: "
+            f"{[r['late_by_more_than_half_period'] for r in runs]} per {args.seconds:g} s)"
+        )
     result = {
         "robot": args.robot,
         "rate_hz": args.rate,
         "seconds": args.seconds,
         "runs": args.runs,
         "median": median,
+        "machine_floor": floor,
         "alarms": sum(r["alarms"] for r in runs),
         "per_run": runs,
     }

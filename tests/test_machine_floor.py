@@ -1,0 +1,22 @@
+"""tools/machine_floor.py: the bare real-time sleep loop the benchmarks compare against."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+
+import machine_floor
+
+
+def test_the_floor_runs_in_its_own_process_and_reports_its_wakes():
+    floor = machine_floor.measure(rate=500.0, seconds=0.2)
+    assert set(floor) == {"late", "wake_p99_us", "wake_max_us", "fifo"}
+    assert 0 <= floor["late"] <= 100  # 0.2 s at 500 Hz: 100 deadlines
+    assert 0.0 <= floor["wake_p99_us"] <= floor["wake_max_us"]
+
+
+def test_a_failing_floor_says_why_instead_of_raising():
+    floor = machine_floor.measure(rate=0.0, seconds=0.1)  # no period
+    assert floor.get("error")
