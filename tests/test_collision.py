@@ -138,6 +138,25 @@ def test_update_from_kinematics_equals_compute(robot_id: str) -> None:
     np.testing.assert_allclose(dist.jacobian(rows), own_jac[rows], atol=1e-12)
 
 
+def test_compiled_distances_need_no_pinocchio_data() -> None:
+    """The compiled kernels place the shapes from q: update(None, q) gives the distances and
+    rows update(data, q) gives; without them (or for box-box pairs) data is required."""
+    dist = distances("smartpal5")
+    if not dist.compiled:
+        with pytest.raises(ValueError, match="needs Pinocchio's data"):
+            dist.update(None, np.zeros(dist.model.nv))
+        return
+    assert not dist.needs_data
+    k = kinematics("smartpal5")
+    q = random_configurations(k.model, 1, seed=12)[0]
+    k.update(q)
+    dist.update(k.data, k.q)
+    with_data, rows = dist.distances.copy(), dist.jacobian()
+    dist.update(None, k.q)
+    np.testing.assert_array_equal(dist.distances, with_data)
+    np.testing.assert_array_equal(dist.jacobian(), rows)
+
+
 @pytest.mark.parametrize("robot_id", ROBOTS)
 def test_every_checked_pair_has_rows(robot_id: str) -> None:
     dist = distances(robot_id)

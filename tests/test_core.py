@@ -315,6 +315,56 @@ def test_collision_distances_are_updated_once_per_cycle_while_the_ik_solves():
         assert len(seen) == n
 
 
+def test_a_control_cycle_runs_no_pinocchio_pass_with_the_compiled_kernels(
+    monkeypatch: pytest.MonkeyPatch,
+):
+    """The cycle's kinematic queries (control points, elbows, vehicle rows, collision pairs)
+    read the compiled joint chain: no ``computeJointJacobians`` while an elbow swings or a
+    hand follows a line with the elbow held and the vehicle's heading ranged (issue 14: the
+    Pinocchio pass was ~18 us of every cycle in the loop)."""
+    import pinocchio as pin
+
+    from controller.model import jit
+    from controller.model.redundant_axes import RedundantAxis, elbow_axis
+    from controller.motion import paths
+    from controller.motion.motions import CartesianMotion, CPHoldMotion
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
+    core = make_core("smartpal5", "mujoco")
+    assert core.collision is not None and not core.collision.distances.needs_data
+    calls: list[int] = []
+    compute = pin.computeJointJacobians
+
+    def counted(*args: object) -> object:
+        calls.append(1)
+        return compute(*args)
+
+    side = RightLeft.RIGHT
+    goal = core.kin.elbow_angle(side) + 0.1
+    speed = np.array([0.3])
+    swing = CPHoldMotion(core.kin, DT, (side,), {elbow_axis(side): goal}, speed, 2 * speed)
+    hand = core.kin.pose(side)
+    line = paths.LinePath(hand, pin.SE3(hand.rotation, hand.translation + 0.02))
+    held = {elbow_axis(side): False, RedundantAxis.LUMBAR_RY: False}
+    span = {RedundantAxis.VEHICLE_THETA: (-0.1, 0.1)}
+    monkeypatch.setattr(pin, "computeJointJacobians", counted)
+    core.start(swing)
+    for _ in range(30):
+        core.cycle()
+    assert core.motion is not None and not calls  # still swinging, every cycle solved
+    core.abort()
+    core.clear_alarms()
+    for _ in range(5):
+        core.cycle()
+    calls.clear()
+    core.start(CartesianMotion(core.kin, DT, side, line, (0.05, 1.0), (0.5, 2.0), held, span))
+    for _ in range(30):
+        core.cycle()
+    assert core.motion is not None and core.ik.rows.limit.max_rows >= 1
+    assert not calls
+
+
 def test_the_control_cycle_never_waits_for_a_compiler():
     """The compiled kernels (collision, elbow, cost, posture path) are compiled or loaded
     from numba's cache when the core is built: cycles that solve (an elbow swing: every kernel

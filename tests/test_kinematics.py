@@ -516,3 +516,45 @@ def test_compiled_control_point_equals_pinocchio(monkeypatch: pytest.MonkeyPatch
                 np.testing.assert_allclose(jac, ref_jac, atol=1e-12)
                 np.testing.assert_allclose(rot, ref_rot, atol=1e-12)
                 np.testing.assert_allclose(pos, ref_pos, atol=1e-12)
+
+
+def test_pinocchios_data_is_computed_when_read_and_is_the_last_updates() -> None:
+    """With the compiled chain an update runs no Pinocchio pass (a control cycle does not
+    need one); reading ``data`` afterwards gives Pinocchio's results at that update's q."""
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off in this variant")
+    kin = kinematics("smartpal5")
+    calls: list[int] = []
+    compute = pin.computeJointJacobians
+
+    def counted(*args: object) -> object:
+        calls.append(1)
+        return compute(*args)
+
+    rng = np.random.default_rng(5)
+    reference = kin.model.createData()
+    try:
+        pin.computeJointJacobians = counted
+        for _ in range(3):
+            q = random_configuration(kin, rng)
+            kin.update(q)
+            for side in kin.arms:  # the cycle's queries: on the compiled chain
+                kin.control_point_world(side)
+                kin.elbow_angle(side)
+                kin.elbow_jacobian(side)
+            kin.vehicle_pose()
+            kin.vehicle_jacobian()
+        assert not calls
+        data = kin.data  # read: computed now, once
+        assert kin.data is data and len(calls) == 1
+    finally:
+        pin.computeJointJacobians = compute
+    pin.computeJointJacobians(kin.model, reference, q)
+    pin.updateFramePlacements(kin.model, reference)
+    np.testing.assert_allclose(data.J, reference.J, atol=1e-12)
+    for fid in (0, kin.model.nframes // 2, kin.model.nframes - 1):
+        np.testing.assert_allclose(
+            data.oMf[fid].homogeneous, reference.oMf[fid].homogeneous, atol=1e-12
+        )

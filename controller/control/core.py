@@ -375,7 +375,9 @@ class MotionCore:
                     self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
                     return
             if self.collision is not None and self.ik.solves:
-                self.collision.distances.update(self.kin.data, self.kin.q)
+                distances = self.collision.distances
+                # The compiled kernels place the shapes from q: no Pinocchio pass for them.
+                distances.update(self.kin.data if distances.needs_data else None, self.kin.q)
             try:
                 result = self.ik.solve(self.q_cmd, self.v_cmd)
             except Exception as exc:  # a solver or numerical error is a failed solve

@@ -192,6 +192,12 @@ class CollisionDistances:
         and shape one they handle; ``IMOTION_JIT=0`` turns them off), else coal does."""
         return self.kernel is not None
 
+    @property
+    def needs_data(self) -> bool:
+        """Whether :meth:`update` reads Pinocchio's data: without the compiled kernels, or
+        for box-box pairs (coal computes those)."""
+        return self.kernel is None or bool(len(self.kernel.other))
+
     def _support_masks(self, joints: np.ndarray) -> np.ndarray:
         """``len(joints) x nv``: 1.0 where a velocity moves the joint's frame (0: the world)."""
         model = self.model
@@ -215,15 +221,21 @@ class CollisionDistances:
             pin.forwardKinematics(self.model, self._own_data, q)
         self.update(self._own_data, q)
 
-    def update(self, data: pin.Data, q: np.ndarray) -> None:
+    def update(self, data: pin.Data | None, q: np.ndarray) -> None:
         """Distances of every pair at configuration ``q`` [rad, m].
 
         ``data`` must be this model's data after ``pin.computeJointJacobians(model, data, q)``
-        (which :meth:`controller.model.kinematics.Kinematics.update` does); without the
-        compiled kernels it is kept for :meth:`witness` and :meth:`jacobian`.
+        (what :attr:`controller.model.kinematics.Kinematics.data` gives); without the
+        compiled kernels it is kept for :meth:`witness` and :meth:`jacobian`. With them and
+        no box-box pair (:attr:`needs_data` False) it is not read and may be None: the kernels
+        place the shapes from ``q`` themselves (the control cycle then needs no Pinocchio
+        pass).
         """
-        self._data = data
         compiled = self.kernel
+        if data is not None:
+            self._data = data
+        elif self.needs_data:
+            raise ValueError("CollisionDistances.update needs Pinocchio's data here")
         if compiled is None:
             pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
             pin.computeDistances(self.geometry, self.geometry_data)

@@ -44,7 +44,7 @@ from typing import NamedTuple
 import numpy as np
 
 from controller.model.jit import jit
-from controller.model.joint_chain import compose
+from controller.model.joint_chain import REVOLUTE, compose
 
 #: Distance [m] of the elbow from the shoulder-wrist line below which the gradient is clamped.
 MIN_OFFSET = 1e-6
@@ -149,7 +149,8 @@ def elbow_kernel(
     points: np.ndarray,
     base: np.ndarray,
     directions: np.ndarray,
-    jac: np.ndarray,
+    joint_columns: np.ndarray,
+    column_kind: np.ndarray,
     columns: np.ndarray,
     masks: np.ndarray,
     row: np.ndarray,
@@ -158,13 +159,14 @@ def elbow_kernel(
     """:func:`swivel` and the angle's Jacobian row in one compiled call.
 
     ``points``: shoulder, elbow, wrist (3 x 3, world [m]); ``directions``: forward, down (unit,
-    in the arm base frame, whose world rotation is ``base``); ``jac``: the world Jacobian
-    ``data.J`` after ``computeJointJacobians`` (6 x nv: the velocity at the world origin,
-    then the angular velocity, per column); ``columns``: the arm's velocity columns,
-    ``masks`` (3 x len(columns)): 1 where a column moves the shoulder, elbow, wrist point.
-    Writes ``row[columns]`` [rad per unit of q] (a point ``p`` moves at ``v_O + ω × p``, so
-    ``g·ṗ = g·v_O + (p × g)·ω``) and ``values`` = (angle [rad], offset [m]). Same arithmetic
-    as :func:`swivel` (tests compare them)."""
+    in the arm base frame, whose world rotation is ``base``); ``joint_columns`` and
+    ``column_kind``: every velocity column's world axis and a point of it [m], and its kind
+    (:func:`~controller.model.joint_chain.forward`'s ``columns``); ``columns``: the arm's
+    velocity columns, ``masks`` (3 x len(columns)): 1 where a column moves the shoulder,
+    elbow, wrist point. Writes ``row[columns]`` [rad per unit of q] (a revolute column turns
+    a point ``p`` at ``a × (p − o)``, a prismatic one moves it at ``a``, so ``g·ṗ`` is
+    ``g·(a × (p − o))`` or ``g·a``) and ``values`` = (angle [rad], offset [m]). Same
+    arithmetic as :func:`swivel` (tests compare them)."""
     sx, sy, sz = points[0, 0], points[0, 1], points[0, 2]
     fx, fy, fz = base @ directions[0]
     tx, ty, tz = base @ directions[1]
@@ -212,17 +214,21 @@ def elbow_kernel(
     grads = ((-gex - gwx, -gey - gwy, -gez - gwz), (gex, gey, gez), (gwx, gwy, gwz))
     for c in range(columns.shape[0]):
         col = columns[c]
+        ax, ay, az = joint_columns[col, 0, 0], joint_columns[col, 0, 1], joint_columns[col, 0, 2]
+        revolute = column_kind[col] == REVOLUTE
         total = 0.0
         for i in range(3):
             if masks[i, c] == 0.0:
                 continue
             gx, gy, gz = grads[i]
-            qx, qy, qz = points[i, 0], points[i, 1], points[i, 2]
-            # g · v_O + (p × g) · ω
-            total += gx * jac[0, col] + gy * jac[1, col] + gz * jac[2, col]
-            total += (qy * gz - qz * gy) * jac[3, col]
-            total += (qz * gx - qx * gz) * jac[4, col]
-            total += (qx * gy - qy * gx) * jac[5, col]
+            if revolute:  # g · (a × (p − o))
+                dx = points[i, 0] - joint_columns[col, 1, 0]
+                dy = points[i, 1] - joint_columns[col, 1, 1]
+                dz = points[i, 2] - joint_columns[col, 1, 2]
+                total += gx * (ay * dz - az * dy) + gy * (az * dx - ax * dz)
+                total += gz * (ax * dy - ay * dx)
+            else:  # g · a
+                total += gx * ax + gy * ay + gz * az
         row[col] = total
 
 
@@ -234,12 +240,14 @@ def elbows_at(
     frame_joint: np.ndarray,
     frame_local: np.ndarray,
     directions: np.ndarray,
-    jac: np.ndarray,
+    joint_columns: np.ndarray,
+    column_kind: np.ndarray,
     arm_columns: np.ndarray,
     counts: np.ndarray,
     masks: np.ndarray,
 ) -> None:
-    """Every arm's elbow from the joints' world placements ``joint_world`` (after
+    """Every arm's elbow from the joints' world placements ``joint_world`` and velocity
+    columns ``joint_columns``, ``column_kind`` (after
     :func:`~controller.model.joint_chain.forward`): per arm ``i`` its base rotation and
     shoulder, elbow and wrist points from ``frame_joint[i]`` (the joints carrying the arm
     base, shoulder, elbow and wrist frames) and ``frame_local[i]`` (those frames' placements
@@ -257,4 +265,7 @@ def elbows_at(
             points[k, :] = placement[3]
         n = counts[i]
         cols, arm_masks = arm_columns[i, :n], masks[i, :, :n]
-        elbow_kernel(points, base, directions[i], jac, cols, arm_masks, rows[i], values[i])
+        elbow_kernel(
+            points, base, directions[i], joint_columns, column_kind, cols, arm_masks, rows[i],
+            values[i],
+        )  # fmt: skip

@@ -23,9 +23,12 @@ returned from the cache are read-only: copy before modifying. With compiled kern
 (:mod:`controller.model.jit`) the joints' placements are computed once per update when first
 needed (:func:`~controller.model.joint_chain.forward`, no placements read back from
 Pinocchio) and shared: the elbows' angle, offset and Jacobian row come from one call of
-:func:`~controller.model.elbow.elbows_at` for all arms (with the world Jacobian the update
-left), a control point's placement and Jacobian from one call of
-:func:`~controller.model.joint_chain.frame_world`.
+:func:`~controller.model.elbow.elbows_at` for all arms (with the chain's Jacobian columns),
+a control point's or the body frame's (the vehicle pose's) placement and Jacobian from one
+call of :func:`~controller.model.joint_chain.frame_world`. Pinocchio's own pass
+(``computeJointJacobians`` + ``updateFramePlacements``) then runs only when something reads
+:attr:`Kinematics.data` after an update (a control cycle does not; without the compiled
+kernels every update runs it).
 """
 
 from __future__ import annotations
@@ -100,6 +103,9 @@ class Kinematics:
             t = np.asarray(ref.down, dtype=float)
             self._elbow_dirs[side] = (f / np.linalg.norm(f), t / np.linalg.norm(t))
 
+        vehicle = robot.unit_joints("VEHICLE")
+        #: Position of the vehicle's θ joint in ``q`` (None: no vehicle).
+        self._theta_index = self._q_index[vehicle[2]] if vehicle else None
         self._units = {
             unit: np.array([self._q_index[n] for n in robot.unit_joints(unit.name)], dtype=int)
             for unit in UnitType
@@ -118,7 +124,9 @@ class Kinematics:
         self._vehicle_cache: tuple[np.ndarray, np.ndarray] | None = None
         self._lumbar_rows: dict[LumbarAxis, np.ndarray] = {}
         self.model = model
-        self.data = model.createData()
+        self._data = model.createData()
+        #: Pinocchio's pass (joint Jacobians, frame placements) done for this update's q.
+        self._pin_done = False
         #: With compiled kernels: the arguments of :func:`~controller.model.elbow.elbows_at`
         #: after the placements, the arms in their order, and their (angle, offset).
         self._elbow_args: tuple[np.ndarray, ...] | None = None
@@ -148,16 +156,16 @@ class Kinematics:
         self._placed = False
         #: Per arm, compiled: the control point's buffers for :func:`frame_world`.
         self._cp_world: dict[RightLeft, _FrameBuffers] = {}
+        #: Compiled: the body frame's (the vehicle pose's), on the shared placements too.
+        self._body_world: _FrameBuffers | None = None
         if self._chain is not None:
             for side, fid in self._cp_frame.items():
-                joint = model.frames[fid].parentJoint
-                support = [model.joints[j].idx_v for j in model.supports[joint] if j > 0]
-                placement = np.zeros((4, 3))
-                self._cp_world[side] = _FrameBuffers(
-                    joint, np.zeros((4, 3)), np.array(support, dtype=np.int64),
-                    np.zeros((6, self.nv)), placement, placement[:3], placement[3],
-                )  # fmt: skip
+                self._cp_world[side] = self._frame_buffers(fid)
                 self._set_cp_local(side)
+            self._body_world = self._frame_buffers(self._body_frame)
+            local = model.frames[self._body_frame].placement
+            self._body_world.local[:3] = local.rotation
+            self._body_world.local[3] = local.translation
             if self._elbow_sides:
                 self._elbow_args = self._elbow_arrays(self._chain)
         self._q = pin.neutral(model)
@@ -168,6 +176,17 @@ class Kinematics:
             self.control_point_world(side)
         self._original_theta = 0.0
         self._set_original(self.data.oMf[self._body_frame].copy())
+
+    def _frame_buffers(self, fid: int) -> _FrameBuffers:
+        """Zeroed :func:`frame_world` buffers for frame ``fid`` (its ``local`` to be set)."""
+        model = self.model
+        joint = model.frames[fid].parentJoint
+        support = [model.joints[j].idx_v for j in model.supports[joint] if j > 0]
+        placement = np.zeros((4, 3))
+        return _FrameBuffers(
+            joint, np.zeros((4, 3)), np.array(support, dtype=np.int64), np.zeros((6, self.nv)),
+            placement, placement[:3], placement[3],
+        )  # fmt: skip
 
     # ------------------------------------------------------------------------ indexing
     def index(self, joint: str) -> int:
@@ -199,15 +218,35 @@ class Kinematics:
         ``q`` is copied: the elbows are computed from it when first asked for, and a caller
         may change its array before that."""
         self._q = np.array(q, dtype=float)
-        pin.computeJointJacobians(self.model, self.data, self._q)
-        pin.updateFramePlacements(self.model, self.data)
-        self._oMf = self.data.oMf  # a live view of the placements: each access builds one
+        self._pin_done = False
+        if self._chain is None:  # every query reads Pinocchio's results: compute them now
+            self._pin_update()
         if self._elbow_args is None:
             self._elbow_cache.clear()
             self._elbow_jac_cache.clear()
         self._elbows_done = False
         self._placed = False
         self._vehicle_cache = None
+
+    @property
+    def data(self) -> pin.Data:
+        """Pinocchio's data at the last update's ``q`` (joint Jacobians and frame placements,
+        ``computeJointJacobians`` + ``updateFramePlacements``). With the compiled joint chain
+        it is computed when first asked for after an update: the cycle's queries (control
+        points, elbows, vehicle) read the chain's placements and never need it."""
+        if not self._pin_done:
+            self._pin_update()
+        return self._data
+
+    def _pin_update(self) -> None:
+        pin.computeJointJacobians(self.model, self._data, self._q)
+        pin.updateFramePlacements(self.model, self._data)
+        self._pin_done = True
+
+    @property
+    def _oMf(self) -> pin.StdVec_SE3:
+        """The frames' world placements (:attr:`data`'s; each item access builds an SE3)."""
+        return self.data.oMf
 
     @property
     def q(self) -> np.ndarray:
@@ -378,7 +417,7 @@ class Kinematics:
     def _elbow_arrays(self, chain: JointChain) -> tuple[np.ndarray, ...]:
         """:func:`~controller.model.elbow.elbows_at`'s arguments after the joints' placements,
         for this model's arms: each arm's four frames (arm base, shoulder, elbow, wrist) as
-        their joint and placement on it, directions, Pinocchio's joint Jacobians, the arm's
+        their joint and placement on it, directions, the chain's velocity columns, the arm's
         columns and which of them move each point."""
         model, sides = self.model, self._elbow_sides
         n = len(sides)
@@ -403,7 +442,10 @@ class Kinematics:
             for k, fid in enumerate(self._elbow_frames[side][1:]):
                 moves = set(model.supports[model.frames[fid].parentJoint])
                 masks[i, k, : len(cols)] = [column_joint[c] in moves for c in cols.tolist()]
-        return frame_joint, frame_local, directions, self.data.J, arm_columns, counts, masks
+        return (
+            frame_joint, frame_local, directions, chain.columns, chain.column_kind, arm_columns,
+            counts, masks,
+        )  # fmt: skip
 
     def _update_elbows(self) -> None:
         """Every arm's elbow angle, offset and Jacobian row in one compiled call, into the
@@ -483,9 +525,8 @@ class Kinematics:
         return bool(self.robot.unit_joints("VEHICLE"))
 
     def _vehicle_theta_joint(self) -> float:
-        if not self.has_vehicle:
-            return 0.0
-        return float(self._q[self._q_index[self.robot.unit_joints("VEHICLE")[2]]])
+        theta = self._theta_index
+        return 0.0 if theta is None else float(self._q[theta])
 
     def vehicle_pose(self) -> np.ndarray:
         """Planar pose (x [m], y [m], θ [rad]) of the body frame in the original frame.
@@ -502,13 +543,24 @@ class Kinematics:
     def _vehicle(self) -> tuple[np.ndarray, np.ndarray]:
         cached = self._vehicle_cache
         if cached is None and self._compiled_vehicle:
-            fid = self._body_frame
-            world = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
-            placement = self._oMf[fid]
+            body = self._body_world
+            if body is not None:  # the body frame on the shared placements
+                chain = self._chain
+                assert chain is not None
+                self._place()
+                frame_world(
+                    chain.joint_world, chain.columns, chain.column_kind, body.joint, body.local,
+                    body.support, body.jac, body.placement,
+                )  # fmt: skip
+                world, translation = body.jac, body.translation
+            else:
+                fid = self._body_frame
+                world = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+                translation = self._oMf[fid].translation
             theta = self._vehicle_theta_joint() - self._original_theta
             pose, rows = np.empty(3), np.empty((3, self.nv))
             r_o, p_o = self.original_arrays
-            _vehicle_rows(world, placement.translation, r_o, p_o, theta, pose, rows)
+            _vehicle_rows(world, translation, r_o, p_o, theta, pose, rows)
             pose.flags.writeable = False
             rows.flags.writeable = False
             cached = self._vehicle_cache = (pose, rows)
