@@ -544,6 +544,8 @@ def test_pinocchios_data_is_computed_when_read_and_is_the_last_updates() -> None
                 kin.control_point_world(side)
                 kin.elbow_angle(side)
                 kin.elbow_jacobian(side)
+                kin.pose(side, FrameType.CURRENT_FRAME)  # soft limits, arrival checks
+            kin.body_pose()
             kin.vehicle_pose()
             kin.vehicle_jacobian()
         assert not calls
@@ -558,3 +560,27 @@ def test_pinocchios_data_is_computed_when_read_and_is_the_last_updates() -> None
         np.testing.assert_allclose(
             data.oMf[fid].homogeneous, reference.oMf[fid].homogeneous, atol=1e-12
         )
+
+
+def test_poses_on_the_compiled_chain_are_pinocchios(monkeypatch: pytest.MonkeyPatch) -> None:
+    """pose() in both frames and body_pose() from the shared placements equal Pinocchio's."""
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off in this variant")
+    rng = np.random.default_rng(8)
+    for robot_id in ("smartpal5", "pa10"):
+        compiled = kinematics(robot_id)
+        monkeypatch.setenv("IMOTION_JIT", "0")
+        python = kinematics(robot_id)
+        monkeypatch.delenv("IMOTION_JIT")
+        for _ in range(10):
+            q = random_configuration(compiled, rng)
+            compiled.update(q)
+            python.update(q)
+            got, want = compiled.body_pose(), python.body_pose()
+            np.testing.assert_allclose(got.homogeneous, want.homogeneous, atol=1e-12)
+            for side in compiled.arms:
+                for frame in FrameType:
+                    got, want = compiled.pose(side, frame), python.pose(side, frame)
+                    np.testing.assert_allclose(got.homogeneous, want.homogeneous, atol=1e-12)

@@ -259,8 +259,22 @@ class Kinematics:
         return self._original
 
     def body_pose(self) -> pin.SE3:
-        """The current frame's (body frame's) pose in the world."""
-        return self.data.oMf[self._body_frame]
+        """The current frame's (body frame's) pose in the world (a new SE3)."""
+        body = self._body_world
+        if body is None:
+            return self.data.oMf[self._body_frame]
+        self._body_placement()
+        return pin.SE3(body.rotation, body.translation)
+
+    def _body_placement(self) -> None:
+        """Compiled: the body frame's placement and Jacobian into its buffers (this update)."""
+        body, chain = self._body_world, self._chain
+        assert body is not None and chain is not None
+        self._place()
+        frame_world(
+            chain.joint_world, chain.columns, chain.column_kind, body.joint, body.local,
+            body.support, body.jac, body.placement,
+        )  # fmt: skip
 
     def reset_original_frame(self) -> None:
         """Original frame := the body frame's current pose (``resetOriginalFrame``)."""
@@ -336,6 +350,9 @@ class Kinematics:
     def pose(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> pin.SE3:
         """Control-point pose in the original or the current frame [m]."""
         base = self._original if frame == FrameType.ORIGINAL_FRAME else self.body_pose()
+        if side in self._cp_world:  # on the shared placements (no Pinocchio pass)
+            _, rotation, translation = self.control_point_world(side)
+            return base.actInv(pin.SE3(rotation, translation))
         return base.actInv(self._oMf[self._cp_frame[side]])
 
     def jacobian(self, side: RightLeft, frame: FrameType = FrameType.ORIGINAL_FRAME) -> np.ndarray:
@@ -545,13 +562,7 @@ class Kinematics:
         if cached is None and self._compiled_vehicle:
             body = self._body_world
             if body is not None:  # the body frame on the shared placements
-                chain = self._chain
-                assert chain is not None
-                self._place()
-                frame_world(
-                    chain.joint_world, chain.columns, chain.column_kind, body.joint, body.local,
-                    body.support, body.jac, body.placement,
-                )  # fmt: skip
+                self._body_placement()
                 world, translation = body.jac, body.translation
             else:
                 fid = self._body_frame
