@@ -116,9 +116,30 @@ def test_model_has_servos_gravity_compensation_and_timestep():
     assert hw.substeps == 2
     assert model.opt.timestep == pytest.approx(DT / 2)
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    np.testing.assert_array_equal(model.body_gravcomp[1:], 1.0)
+    assert model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
     assert np.all(hw.kp > 0) and np.all(hw.kv > 0)
     assert np.all(model.dof_armature > 0)
+
+
+def test_gravity_off_moves_the_robot_as_gravity_compensated_at_every_body():
+    """The stand-in switches gravity off: the same equations of motion as gravity on with
+    every body compensated (gravcomp = 1), at random configurations and velocities."""
+    path = str(robot("smartpal5").mjcf_path)
+    compensated, off = mujoco.MjSpec.from_file(path), mujoco.MjSpec.from_file(path)
+    for body in compensated.bodies:
+        body.gravcomp = 1.0
+    off.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_GRAVITY
+    m_on, m_off = compensated.compile(), off.compile()
+    assert m_on.ngravcomp > 0 and np.linalg.norm(m_on.opt.gravity) > 9.0
+    d_on, d_off = mujoco.MjData(m_on), mujoco.MjData(m_off)
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        d_on.qpos[:] = d_off.qpos[:] = rng.uniform(-1.0, 1.0, m_on.nq)
+        d_on.qvel[:] = d_off.qvel[:] = rng.uniform(-1.0, 1.0, m_on.nv)
+        mujoco.mj_forward(m_on, d_on)
+        mujoco.mj_forward(m_off, d_off)
+        assert np.abs(d_on.qfrc_gravcomp).max() > 1.0  # gravity is compensated, not absent
+        np.testing.assert_allclose(d_off.qacc, d_on.qacc, rtol=1e-9, atol=1e-9)
 
 
 def test_custom_joint_subset_and_initial_values():
