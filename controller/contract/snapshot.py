@@ -37,6 +37,8 @@ JOINTS_NAME = "joints.json"
 
 # header indices
 H_SEQ = 0
+# H_CYCLE .. H_QUEUE and H_STARTED, H_FINISHED are consecutive: the publisher writes each
+# run in one slice assignment.
 H_CYCLE = 1
 H_CORE_STATE = 2  #: a CoreState value
 H_HW_STATE = 3  #: index into HW_STATES

@@ -49,9 +49,7 @@ class SnapshotPublisher:
         w, core = self.writer, self.core
         h = w.header
         w.begin()
-        h[snap.H_CYCLE] = core.cycles
-        h[snap.H_CORE_STATE] = int(core.state)
-        h[snap.H_HW_STATE] = snap.HW_STATES.index(self.hw.state)
+        hw_state = snap.HW_STATES.index(self.hw.state)
         flags = 0
         if core.is_moving:
             flags |= snap.F_MOVING
@@ -63,10 +61,9 @@ class SnapshotPublisher:
             flags |= snap.F_QUEUE_FULL
         if self.hw.state == HardwareState.ACTIVE and core.state != CoreState.SERVO_OFF:
             flags |= snap.F_SERVO_ON
-        h[snap.H_FLAGS] = flags
-        h[snap.H_QUEUE] = queued
-        h[snap.H_STARTED] = started
-        h[snap.H_FINISHED] = finished
+        # Two slice writes instead of one per field (this runs every cycle).
+        h[snap.H_CYCLE : snap.H_QUEUE + 1] = (core.cycles, core.state, hw_state, flags, queued)
+        h[snap.H_STARTED : snap.H_FINISHED + 1] = (started, finished)
         w.values[snap.V_STAMP] = time.monotonic()
         w.q[:] = core.measured_hw
         w.q_cmd[:] = core.hw_command
