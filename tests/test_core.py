@@ -390,6 +390,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         collision_kernel.update,
         collision_kernel.jacobian_rows,
         damper_kernel.collision_rows,
+        damper_kernel.binding,
         elbow.elbows_at,
         joint_chain.forward,
         joint_chain.frame_world,

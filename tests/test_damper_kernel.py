@@ -86,3 +86,32 @@ def test_same_rows_pairs_and_allowances_over_a_walk(
         assert dropped > 0  # rows the box implies were left out
     else:
         assert dropped == 0
+
+
+def test_the_compiled_binding_pair_is_the_numpy_one() -> None:
+    """damper_kernel.binding against CollisionAvoidance.binding's NumPy steps on random
+    rows: ties go to the first row, NaN distances and slacks never bind."""
+    from controller.qp.constraints.damper_kernel import binding
+
+    rng = np.random.default_rng(9)
+    tol = 1e-5
+    found = 0
+    for trial in range(300):
+        k, nv, pairs = 6, 5, 12
+        C = rng.normal(size=(8, nv))
+        v = rng.normal(size=nv)
+        low = rng.normal(size=8)
+        lo = low + rng.choice([0.0, 1.0], size=8)
+        lo[:k] = np.where(rng.random(k) < 0.5, (C[:k] @ v), lo[:k])  # some rows at their bound
+        d = rng.choice([0.01, 0.02, 0.05, np.nan], size=pairs)
+        row_pairs = rng.choice(pairs, size=8, replace=False).astype(np.int64)
+        within = 0.04
+        got = binding(C, k, v, lo, low, d, row_pairs, within, tol)
+        slack = C[:k].dot(v) - lo[:k]
+        tight = np.flatnonzero(
+            (slack < tol) & (lo[:k] > low[:k] + tol) & (d[row_pairs[:k]] < within)
+        )
+        want = -1 if not len(tight) else int(row_pairs[tight][np.argmin(d[row_pairs[tight]])])
+        assert got == want, trial
+        found += want >= 0
+    assert found > 30

@@ -52,6 +52,7 @@ from controller.model.kinematics import Kinematics
 from controller.model.obstacles import Obstacle
 from controller.model.profile import CollisionAvoidance as Settings
 from controller.qp.constraints.braking import BRAKING_SHARE
+from controller.qp.constraints.damper_kernel import binding as binding_kernel
 from controller.qp.constraints.damper_kernel import collision_rows
 from controller.qp.constraints.protocol import (
     INF,
@@ -156,6 +157,10 @@ class CollisionAvoidance:
         self._state[...] = state
         self.allowed[...] = allowed
         self.pairs = self.row_pairs = np.zeros(0, dtype=np.int64)
+        binding_kernel(
+            rows.C, 0, zero, self._rows_lo, self._low, self.distances.distances,
+            self._buffers[0][1][:0], 0.0, BINDING_TOL,
+        )  # fmt: skip
         self._rows = None
 
     @staticmethod
@@ -332,6 +337,13 @@ class CollisionAvoidance:
         k = len(self.row_pairs)
         if not k or self._rows is None:
             return -1
+        if self.distances.kernel is not None:  # one compiled call (every cycle of a move)
+            return int(
+                binding_kernel(
+                    self._rows.C, k, v, self._rows_lo, self._low, self.distances.distances,
+                    self.row_pairs, within, BINDING_TOL,
+                )
+            )  # fmt: skip
         lo = self._rows_lo[:k]
         slack = self._rows.C[:k].dot(v) - lo
         close = self.distances.distances[self.row_pairs] < within

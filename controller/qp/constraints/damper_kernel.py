@@ -168,3 +168,32 @@ def collision_rows(
         lo[i] = -inf
         hi[i] = inf
     return k, m
+
+
+@jit
+def binding(
+    C: np.ndarray,
+    count: int,
+    v: np.ndarray,
+    lo: np.ndarray,
+    low: np.ndarray,
+    d: np.ndarray,
+    row_pairs: np.ndarray,
+    within: float,
+    tol: float,
+) -> int:
+    """:meth:`CollisionAvoidance.binding` compiled: among the first ``count`` rows (pairs
+    ``row_pairs``), those that ``v`` meets at their bound ``lo`` (slack under ``tol``), that
+    restrict more than the box (``lo > low + tol``) and whose pair is closer than ``within``
+    [m]: the pair with the smallest distance ``d`` (the first of equal ones); -1: none."""
+    best, best_d = -1, math.inf
+    for i in range(count):
+        p = row_pairs[i]
+        if not (d[p] < within and lo[i] > low[i] + tol):
+            continue
+        s = 0.0
+        for j in range(C.shape[1]):
+            s += C[i, j] * v[j]
+        if s - lo[i] < tol and (best < 0 or d[p] < best_d):
+            best, best_d = p, d[p]
+    return best
