@@ -86,7 +86,12 @@ def test_control_point_rows_are_the_same_compiled_and_through_pinocchio(
             kin.set_original_frame(pin.SE3.Random(), float(rng.normal()))
         side = RightLeft.RIGHT if trial % 3 else RightLeft.LEFT
         task = tasks.ControlPointTask(side, pin.SE3.Random(), gain=7.5)
-        task.set_target(pin.SE3.Random(), rng.normal(size=6))
+        if trial % 4 == 0:  # set anew, then changed in place: the rows follow the pose
+            task.target = pin.SE3.Random()
+            task.target.translation[:] += rng.normal(size=3)
+            task.target.rotation[:] = pin.SE3.Random().rotation
+        else:
+            task.set_target(pin.SE3.Random(), rng.normal(size=6))
         out = []
         for compiled in (True, False):
             monkeypatch.setattr(tasks, "_COMPILED", compiled)

@@ -72,6 +72,27 @@ class ControlPointTask(Task):
         self.gain = gain
         self.weight = np.array([weight] * 3 + [weight * ROTATION_SCALE**2] * 3)
 
+    @property
+    def target(self) -> pin.SE3:
+        """The pose to reach [m] (original frame)."""
+        return self._target
+
+    @target.setter
+    def target(self, target: pin.SE3) -> None:
+        self._target = target
+        # Views of its rotation and translation (Pinocchio builds one at every access; the
+        # compiled rows read them every cycle): they follow the pose if it changes in place.
+        self._target_arrays = (target.rotation, target.translation)
+
+    @property
+    def gain(self) -> float:
+        """Gain of the error feedback [1/s]."""
+        return self._gain
+
+    @gain.setter
+    def gain(self, gain: float) -> None:
+        self._gain = float(gain)
+
     def set_target(self, target: pin.SE3, twist: np.ndarray | None = None) -> None:
         self.target = target
         self.twist = np.zeros(6) if twist is None else twist
@@ -92,11 +113,10 @@ class ControlPointTask(Task):
         if _COMPILED:
             world, rotation, translation = kin.control_point_world(self.side)
             r_o, p_o = kin.original_arrays
-            target = self.target
+            target_rotation, target_translation = self._target_arrays
             _control_point_rows(
-                world, rotation, translation, r_o, p_o, target.rotation, target.translation,
-                self.twist, float(self.gain), jac is not None, _NO_ROWS if jac is None else jac,
-                rate,
+                world, rotation, translation, r_o, p_o, target_rotation, target_translation,
+                self.twist, self._gain, jac is not None, _NO_ROWS if jac is None else jac, rate,
             )  # fmt: skip
             return
         if jac is not None:
