@@ -200,6 +200,22 @@ def test_level_two_gives_the_full_qps_answer(robot_id: str):
     ik.tasks = [ControlPointTask(side, kin.pose(side)), elbow, *arm_tasks(kin)[-1:]]
     follow(ik, q, np.zeros(kin.nv), 300, tol=1e-6)
     assert ik.solver2 is not None and ik.solver2.p == 6
+    # Another layout of the same shape (the left arm instead): its level 2 is the solver
+    # looked up for it, not the one kept from the last layout's solves.
+    other = RightLeft.LEFT
+    if kin.has_elbow(other):
+        ik.configure(frozen_units(kin, [UnitType.LEFT_ARM]))
+        axis = elbow_axis(other)
+        elbow = AxisTask(axis, axis_value(kin, axis) + math.radians(5))
+        ik.tasks = [ControlPointTask(other, kin.pose(other)), elbow, *arm_tasks(kin)[-1:]]
+        ik.solve(q, np.zeros(kin.nv))
+        assert ik._warm_for[level_two_key(ik)] is ik._layout  # looked up for this layout
+        assert ik.solver2 is ik.solver_for(2, 6)
+
+
+def level_two_key(ik: WholeBodyIK) -> tuple[int, int, int, int]:
+    """The level-2 solver's key of the current layout (see WholeBodyIK.solver_for)."""
+    return (ik._layout.n, ik._layout.m2, 6, 2)
 
 
 def test_rows_of_frozen_joints_only_are_checked_not_solved():

@@ -228,6 +228,9 @@ class WholeBodyIK:
         self._solvers: dict[tuple[int, int, int, int], QPSolver] = {}
         #: Level 2's equality rows and right-hand side by (rows, free joints), compiled path.
         self._equality: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        #: The last level-2 solve's equality count, solver and equality buffers, kept while
+        #: the layout stays (a new layout clears it: another layout may have used the solver).
+        self._level2: tuple[int, QPSolver, np.ndarray, np.ndarray] | None = None
         self._compiled = jit.available()
         #: Per solver (by key): the layout whose problem its warm start belongs to.
         self._warm_for: dict[tuple[int, int, int, int], Layout] = {}
@@ -311,6 +314,7 @@ class WholeBodyIK:
         """The layout of the current configuration (from :attr:`layouts` when seen
         before)."""
         self._layout = layout = self.layouts.get(self._setup.frozen, self._constraints)
+        self._level2 = None
         if layout.n:  # with every joint frozen there is nothing to solve (nor a QP to make)
             self.solver = self.solver_for()
         return layout
@@ -392,14 +396,18 @@ class WholeBodyIK:
         iterations = self.solver.iterations
         if plan.level2 is not None:
             p = min(plan.m1, self.n_eq)
+            level2 = self._level2
+            if level2 is None or level2[0] != p:  # a new layout or count: look them up
+                solver2 = self.solver_for(2, p)
+                level2 = self._level2 = (p, solver2, *self._equality_buffers(p, layout.n))
+            _, solver2, A, b = level2
             if self._compiled:  # the equalities A x = A x1 in one call, into kept buffers
-                A, b = self._equality_buffers(p, layout.n)
                 _equalities(plan.level1.jac, layout.free_index, x, A, b)
             else:
                 A = np.ascontiguousarray(plan.level1.jac[:p, layout.free])
                 b = A.dot(x)
             H2, g2 = plan.level2.cost(layout, moving)
-            self.solver2 = solver2 = self.solver_for(2, p)
+            self.solver2 = solver2
             C2, lo2, hi2 = layout.level2
             x2 = solver2.solve(H2, g2, C2, lo2, hi2, lb, ub, A, b)
             if x2 is None:
