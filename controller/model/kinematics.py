@@ -156,8 +156,10 @@ class Kinematics:
         self._placed = False
         #: Per arm, compiled: the control point's buffers for :func:`frame_world`.
         self._cp_world: dict[RightLeft, _FrameBuffers] = {}
-        #: Compiled: the body frame's (the vehicle pose's), on the shared placements too.
+        #: Compiled: the body frame's (the vehicle pose's), on the shared placements too,
+        #: and whether they hold this update's placement.
         self._body_world: _FrameBuffers | None = None
+        self._body_placed = False
         if self._chain is not None:
             for side, fid in self._cp_frame.items():
                 self._cp_world[side] = self._frame_buffers(fid)
@@ -226,6 +228,7 @@ class Kinematics:
             self._elbow_jac_cache.clear()
         self._elbows_done = False
         self._placed = False
+        self._body_placed = False
         self._vehicle_cache = None
 
     @property
@@ -267,10 +270,14 @@ class Kinematics:
         return pin.SE3(body.rotation, body.translation)
 
     def _body_placement(self) -> None:
-        """Compiled: the body frame's placement and Jacobian into its buffers (this update)."""
+        """Compiled: the body frame's placement and Jacobian into its buffers, once per
+        update (the vehicle rows and every current-frame pose read them)."""
+        if self._body_placed:
+            return
         body, chain = self._body_world, self._chain
         assert body is not None and chain is not None
         self._place()
+        self._body_placed = True
         frame_world(
             chain.joint_world, chain.columns, chain.column_kind, body.joint, body.local,
             body.support, body.jac, body.placement,
