@@ -397,6 +397,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
         joint_box.box_bounds,
         tasks._pose_error,
         tasks._control_point_rows,
+        tasks._control_point_task,
         cost_kernel.least_squares,
         posture._follow,
         paths._line_pose,

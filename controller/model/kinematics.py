@@ -33,7 +33,7 @@ kernels every update runs it).
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -154,16 +154,23 @@ class Kinematics:
             except Unsupported:
                 self._chain = None
         self._placed = False
-        #: Per arm, compiled: the control point's buffers for :func:`frame_world`.
+        #: Per arm, compiled: the control point's buffers for :func:`frame_world`, and that
+        #: call's arguments (:meth:`control_point_chain`).
         self._cp_world: dict[RightLeft, _FrameBuffers] = {}
+        self._cp_chain_args: dict[RightLeft, tuple[Any, ...]] = {}
         #: Compiled: the body frame's (the vehicle pose's), on the shared placements too,
         #: and whether they hold this update's placement.
         self._body_world: _FrameBuffers | None = None
         self._body_placed = False
         if self._chain is not None:
+            chain = self._chain
             for side, fid in self._cp_frame.items():
-                self._cp_world[side] = self._frame_buffers(fid)
+                cp = self._cp_world[side] = self._frame_buffers(fid)
                 self._set_cp_local(side)
+                self._cp_chain_args[side] = (
+                    chain.joint_world, chain.columns, chain.column_kind, cp.joint, cp.local,
+                    cp.support, cp.jac, cp.placement,
+                )  # fmt: skip
             self._body_world = self._frame_buffers(self._body_frame)
             local = model.frames[self._body_frame].placement
             self._body_world.local[:3] = local.rotation
@@ -396,6 +403,15 @@ class Kinematics:
         jac = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
         placement = self._oMf[fid]
         return jac, placement.rotation, placement.translation
+
+    def control_point_chain(self, side: RightLeft) -> tuple[Any, ...] | None:
+        """Compiled: :func:`~controller.model.joint_chain.frame_world`'s arguments for the
+        control point on this update's placements (computed here if needed), for a kernel
+        that places the point itself (the control-point task's); None without the chain."""
+        args = self._cp_chain_args.get(side)
+        if args is not None:
+            self._place()
+        return args
 
     def _frame_jacobian(self, fid: int, frame: FrameType) -> np.ndarray:
         jac: np.ndarray = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)

@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from controller.model import jit
+from controller.model.joint_chain import frame_world
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_value
 from controller.vocabulary import RightLeft
@@ -111,9 +112,18 @@ class ControlPointTask(Task):
 
     def compute_into(self, kin: Kinematics, jac: np.ndarray | None, rate: np.ndarray) -> None:
         if _COMPILED:
-            world, rotation, translation = kin.control_point_world(self.side)
             r_o, p_o = kin.original_arrays
             target_rotation, target_translation = self._target_arrays
+            chain = kin.control_point_chain(self.side)
+            if chain is not None:  # the point placed and its rows written in one call
+                joint_world, columns, kinds, joint, local, support, world, placement = chain
+                _control_point_task(
+                    joint_world, columns, kinds, joint, local, support, world, placement, r_o,
+                    p_o, target_rotation, target_translation, self.twist, self._gain,
+                    jac is not None, _NO_ROWS if jac is None else jac, rate,
+                )  # fmt: skip
+                return
+            world, rotation, translation = kin.control_point_world(self.side)
             _control_point_rows(
                 world, rotation, translation, r_o, p_o, target_rotation, target_translation,
                 self.twist, self._gain, jac is not None, _NO_ROWS if jac is None else jac, rate,
@@ -227,6 +237,37 @@ def _control_point_rows(
                 x, y, z = world[half, j], world[half + 1, j], world[half + 2, j]
                 for a in range(3):
                     jac[half + a, j] = r_o[0, a] * x + r_o[1, a] * y + r_o[2, a] * z
+
+
+@jit.jit
+def _control_point_task(
+    joint_world: np.ndarray,
+    columns: np.ndarray,
+    column_kind: np.ndarray,
+    joint: int,
+    local: np.ndarray,
+    support: np.ndarray,
+    world: np.ndarray,
+    placement: np.ndarray,
+    r_o: np.ndarray,
+    p_o: np.ndarray,
+    target_rot: np.ndarray,
+    target_pos: np.ndarray,
+    twist: np.ndarray,
+    gain: float,
+    write_jac: bool,
+    jac: np.ndarray,
+    rate: np.ndarray,
+) -> None:
+    """:func:`~controller.model.joint_chain.frame_world` (the control point's placement and
+    world Jacobian into ``placement`` and ``world``, see
+    :meth:`Kinematics.control_point_chain`), then :func:`_control_point_rows`: a task's cycle
+    in one compiled call."""
+    frame_world(joint_world, columns, column_kind, joint, local, support, world, placement)
+    _control_point_rows(
+        world, placement[:3], placement[3], r_o, p_o, target_rot, target_pos, twist, gain,
+        write_jac, jac, rate,
+    )  # fmt: skip
 
 
 #: No Jacobian rows to write (a dummy of the rows' layout).
@@ -371,6 +412,12 @@ if _COMPILED:  # compile (or load) at import for Pinocchio's arrays: never in a 
         _one.rotation, _one.translation, np.zeros(6), 1.0, True, _rows, np.zeros(6),
     )  # fmt: skip
     _placement = np.zeros((4, 3))  # the compiled kinematics' buffers (Kinematics._cp_world)
+    _control_point_task(
+        np.zeros((2, 4, 3)), np.zeros((1, 2, 3)), np.zeros(1, dtype=np.int64), 1,
+        np.zeros((4, 3)), np.zeros(0, dtype=np.int64), np.zeros((6, 1)), _placement, np.eye(3),
+        np.zeros(3), _one.rotation, _one.translation, np.zeros(6), 1.0, True,
+        np.zeros((8, 1), order="F")[1:7], np.zeros(6),
+    )  # fmt: skip
     _control_point_rows(
         np.zeros((6, 2)), _placement[:3], _placement[3], np.eye(3), np.zeros(3),
         _one.rotation, _one.translation, np.zeros(6), 1.0, True, _rows, np.zeros(6),
