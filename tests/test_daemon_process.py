@@ -310,7 +310,8 @@ def test_the_gateway_answers_servo_off_before_the_loop_runs(short_dir: Path):
     """imotiond is ready (READY=1, the "ready" line) once its gateway listens, before the
     loop's first cycle: the snapshot the gateway reads then already shows the hardware it
     configured (power_on_at_start), ServoOff, not the Unpowered of the controller's first
-    snapshot (a HIL run at load ~3 read Unpowered in that window)."""
+    snapshot (a HIL run at load ~3 read Unpowered in that window), and the joints it
+    measures, not the zeros the snapshot held until the loop's first read."""
     cfg = load_config(
         None,
         {"robot": "pa10", "hal": "ideal", "listen": f"unix:{short_dir / 'api.sock'}"},
@@ -321,10 +322,15 @@ def test_the_gateway_answers_servo_off_before_the_loop_runs(short_dir: Path):
         address = d.start_gateway_process()  # what imotiond waits for before READY=1
         assert d.controller.core.cycles == 0  # the loop has not run
         with grpc.insecure_channel(address) as channel:
-            reply = pb_grpc.IntegratedMotionStub(channel).GetState(
-                pb.GetStateRequest(), timeout=START_BOUND
+            stub = pb_grpc.IntegratedMotionStub(channel)
+            reply = stub.GetState(pb.GetStateRequest(), timeout=START_BOUND)
+            joints = stub.GetFeedbackPosJoint(
+                pb.GetFeedbackPosJointRequest(type=pb.RIGHT_ARM), timeout=START_BOUND
             )
         assert reply.status_id == S.SERVO_OFF, reply
+        # ... and the measured joints (PA10's home: J2 30, J4 60, J6 60 deg), not zeros
+        assert joints.return_id.id == 0, joints.return_id.comment
+        assert [round(x, 6) for x in joints.position] == [0, 30, 0, 60, 0, 60, 0], joints
     finally:
         d.close()
 

@@ -177,6 +177,13 @@ class MotionCore:
                 self.state = CoreState.SERVO_OFF
             self._hold()
 
+    def adopt_measured(self) -> None:
+        """Take the hardware's measured positions as the state (measured and commanded,
+        holding): after the hardware is configured, before the loop's first cycle, so the
+        first snapshot shows the joints where they are (not zeros)."""
+        with self._lock:
+            self._sync_to_measured()
+
     def _sync_to_measured(self) -> None:
         measured = self.hw.read().position
         self.measured_hw = measured.copy()

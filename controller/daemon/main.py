@@ -163,9 +163,11 @@ class Daemon:
             # After the controller is built: its models load in C calls that hold the GIL
             # for hundreds of ms, which would starve the CAN master's heartbeat thread.
             self.hw.configure()
-            # The controller's first snapshot showed the hardware unconfigured (Unpowered);
-            # the gateway reads the snapshot and answers before the loop's first cycle
-            # (READY=1 comes first): show it configured (ServoOff) from the start.
+            # The controller's first snapshot showed the hardware unconfigured (Unpowered)
+            # and the joints at zero; the gateway reads the snapshot and answers before the
+            # loop's first cycle (READY=1 comes first): show it configured (ServoOff), with
+            # the joints it measures, from the start.
+            self.controller.core.adopt_measured()
             self.controller.publish()
         if cfg.loop.stats_file is not None:
             loop = self.controller.loop
