@@ -30,6 +30,7 @@ from controller.model.robot import Robot
 from hal.can.drive_profile import DriveProfile
 from hal.can.scaling import ScalingArray
 from hal.can.vehicle import VehicleMapping
+from hal.emulator import kernels
 from hal.interface import HardwareState, JointCommand
 from hal.mujoco_backend import MujocoBackend
 
@@ -41,9 +42,14 @@ _HALF = 2**31
 
 
 class Plant:
-    """Simulated joints of ``robot`` for the drives of ``profile`` (in profile order)."""
+    """Simulated joints of ``robot`` for the drives of ``profile`` (in profile order).
 
-    def __init__(self, robot: Robot, profile: DriveProfile, period: float):
+    ``compiled``: :meth:`step`'s arithmetic in one compiled call
+    (:func:`hal.emulator.kernels.plant_command`), else NumPy.
+    """
+
+    def __init__(self, robot: Robot, profile: DriveProfile, period: float, compiled: bool = False):
+        self.compiled = compiled
         self.names = tuple(profile.drives)
         wheels = profile.wheels
         self.period = float(period)
@@ -81,6 +87,8 @@ class Plant:
         self._position = np.zeros(n)  # measured [rad]/[m] (wheels: wheel angle)
         self._velocity = np.zeros(n)
         self._wheel_angle = np.zeros(len(wheels))
+        self._command = np.empty(self._mask.size)  # servo commands [rad]/[m] (compiled)
+        self._command_velocity = np.zeros(self._mask.size)
 
     # ---------------------------------------------------------------------------- set-up
 
@@ -113,6 +121,9 @@ class Plant:
         values are fine), servos on where ``torque``; then the measured values are updated."""
         raw = np.asarray(setpoints, dtype=np.int64)
         torque = np.asarray(torque, dtype=bool)
+        if self.compiled:
+            self._step_compiled(raw, torque)
+            return
         delta = (raw - self._last_raw + _HALF) % _SPAN - _HALF
         self._target = np.where(self._started, self._target + delta, raw)
         self._started[:] = True
@@ -143,6 +154,27 @@ class Plant:
             backend.set_servo_mask(self._mask)
         self._ref_prev[:] = self._ref
         self._torque_prev[:] = torque
+        self._measure()
+
+    def _step_compiled(self, raw: np.ndarray, torque: np.ndarray) -> None:
+        """:meth:`step` with its arithmetic in one compiled call; the servo mask is set only
+        when it changes (setting the same one again changes nothing)."""
+        position, velocity = self._command, self._command_velocity
+        kernels.plant_command(
+            raw, torque, self._last_raw, self._target, self._started, self._scaling.offset,
+            self._scaling.factor, self._ref, self._ref_prev, self._torque_prev, self.period,
+            self._joint_idx, self._pull, self._position, position, velocity, self._mask,
+        )  # fmt: skip
+        if self._mapping_cmd is not None:
+            self._vehicle_step(torque, position, velocity)
+        backend = self.backend
+        if not np.array_equal(self._mask, backend.servo_mask):
+            backend.set_servo_mask(self._mask)
+        backend.write(JointCommand(position=position, velocity=velocity))
+        if backend.state is HardwareState.FAULT:  # diverged: reset to the initial pose
+            backend.reset_faults()
+            backend.activate()
+            backend.set_servo_mask(self._mask)
         self._measure()
 
     def _vehicle_step(self, torque: np.ndarray, position: np.ndarray, velocity: np.ndarray) -> None:
