@@ -144,6 +144,7 @@ class DriveEmulator:
         self._torque = np.empty(len(self._order), dtype=bool)
         self._now = np.zeros(1)  # [s] time.time() of a SYNC's TPDOs, and its wire bytes
         self._now_bytes = self._now.view(np.uint8)
+        self._port_index = {name: k for k, name in enumerate(self._ports)}
         self._inbox: Inbox | None = None
         if self.compiled:
             self._warm_up()
@@ -484,11 +485,12 @@ class DriveEmulator:
         """All buses in one thread: wait on their descriptors, then handle every frame waiting
         on any bus in the order they were sent; tick the heartbeats every :data:`TICK` [s]."""
         fds = {port.bus.fileno(): port for port in ports if port.bus is not None}
+        descriptors = list(fds)
         self._realtime()
         next_tick = 0.0
         while self._running.is_set():
             try:
-                ready, _, _ = select.select(list(fds), [], [], TICK)
+                ready, _, _ = select.select(descriptors, [], [], TICK)
             except (OSError, ValueError) as exc:
                 if self._running.is_set():
                     log.error("emulator: select failed, the emulator stops: %s", exc)
@@ -497,9 +499,14 @@ class DriveEmulator:
                 start = time.monotonic()
                 handled = 0
                 for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
-                    batch = self._handle(ports)  # the ticks below see every heartbeat
-                    handled += batch
-                    if not batch or self._clock() >= next_tick + TICK:  # ticks due too
+                    handled += self._handle([fds[fd] for fd in ready])  # the ticks below
+                    if self._clock() >= next_tick + TICK:  # see every heartbeat; ticks due
+                        break
+                    try:  # the buses that got more meanwhile (one system call for all)
+                        ready, _, _ = select.select(descriptors, [], [], 0.0)
+                    except (OSError, ValueError):
+                        break  # the next wait says why
+                    if not ready:
                         break
                 took = time.monotonic() - start
                 if took > SLOW_BATCH:
@@ -522,8 +529,8 @@ class DriveEmulator:
     def _handle(self, ports: list[Port]) -> int:
         """Every frame waiting on ``ports``, in the order they were sent (their timestamps):
         a SYNC round is then seen as the master sent it, however the buses were read."""
-        if self._inbox is not None and len(ports) == len(self._ports):
-            return self._inbox.handle()
+        if self._inbox is not None:
+            return self._inbox.handle([self._port_index[port.name] for port in ports])
         frames: list[tuple[float, int, int, bytes]] = []
         for k, port in enumerate(ports):
             try:

@@ -167,21 +167,24 @@ class Inbox:
             route_frames(self._order[:n], 0, buf, self._port, self._id, self._start,
                          self.routes, ints)  # fmt: skip
 
-    def refresh(self) -> None:
-        """Routing tables of the buses whose drives changed them."""
-        for k, port in enumerate(self._ports):
+    def refresh(self, k: int | None = None) -> None:
+        """Routing tables of bus ``k`` (default: every bus) if its drives changed them."""
+        for j in range(len(self._ports)) if k is None else (k,):
+            port = self._ports[j]
             if port.dirty:
                 port.rebuild()
             key = (port.routes_version, port.bus_off)
             if key != port.fast_key:
-                self.routes[k] = port.fast_routes()
+                self.routes[j] = port.fast_routes()
                 port.fast_key = key
 
-    def handle(self) -> int:
-        """Every frame waiting on the buses, in the order they were sent; how many."""
+    def handle(self, ready: Sequence[int] | None = None) -> int:
+        """Every frame waiting on the buses ``ready`` (indices; default: all), in the order
+        they were sent; how many."""
         records: list[bytes] = []
         record_ports: list[int] = []
-        for k, port in enumerate(self._ports):
+        for k in range(len(self._ports)) if ready is None else ready:
+            port = self._ports[k]
             try:
                 got = port.records()
             except Exception as exc:
@@ -212,7 +215,8 @@ class Inbox:
             if k >= n:
                 return n
             j = int(order[k])
-            bus = self._ports[bus_of[j]]
+            index = int(bus_of[j])
+            bus = self._ports[index]
             at = int(start[j])
             cid = int(can_id[j])
             data = joined[at + _HEADER : at + _HEADER + int(buf[at + _LENGTH])]
@@ -220,5 +224,5 @@ class Inbox:
                 self._frame(bus, cid, data)
             except Exception:  # one bad frame must not end the bus
                 log.exception("bus %s: frame 0x%03X failed", bus.name, cid)
-            self.refresh()
+            self.refresh(index)  # what a frame changes (SDO, NMT) is on its own bus
             k += 1

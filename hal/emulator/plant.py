@@ -87,6 +87,7 @@ class Plant:
         self._position = np.zeros(n)  # measured [rad]/[m] (wheels: wheel angle)
         self._velocity = np.zeros(n)
         self._wheel_angle = np.zeros(len(wheels))
+        self._sim_time = 0.0
         self._command = np.empty(self._mask.size)  # servo commands [rad]/[m] (compiled)
         self._command_velocity = np.zeros(self._mask.size)
 
@@ -104,7 +105,8 @@ class Plant:
 
     @property
     def sim_time(self) -> float:
-        return self.backend.sim_time
+        """Simulated time [s] (the backend's, as of the last step)."""
+        return self._sim_time
 
     def position_counts(self) -> np.ndarray:
         """Measured positions [counts] (int64, not wrapped), drive order."""
@@ -203,6 +205,7 @@ class Plant:
 
     def _measure(self) -> None:
         state = self.backend.read()
+        self._sim_time = state.stamp
         nj = self._nj
         self._position[self._joint_idx] = state.position[:nj]
         self._velocity[self._joint_idx] = state.velocity[:nj]
