@@ -28,7 +28,8 @@ from hal.emulator.emulator import DriveEmulator
 from hal.emulator.plant import Plant
 from tests.emulator_support import SDO_DOWNLOAD, FakeClock
 
-pytestmark = pytest.mark.skipif(not jit.available(), reason="compiled kernels off (IMOTION_JIT=0)")
+# Run with IMOTION_JIT=0 too: the tests ask for the compiled round explicitly.
+pytestmark = pytest.mark.skipif(jit.numba is None, reason="numba not installed")
 
 MASTER = 127
 Frame = tuple[int, bytes]
@@ -385,3 +386,29 @@ def test_plant_step_compiled_is_the_numpy_step(robot):
         np.testing.assert_array_equal(plants[0].position_counts(), plants[1].position_counts())
         np.testing.assert_array_equal(plants[0].velocity_counts(), plants[1].velocity_counts())
     emulator.close()
+
+
+def test_a_faulted_or_silenced_drive_goes_the_python_way_and_the_others_stay_compiled():
+    twin = Twin("pa10")
+    try:
+        nodes = twin.nodes[twin.buses[0]]
+        for bus in twin.buses:
+            twin.exchange([(bus, 0x000, bytes([0x01, 0]))])
+        targets = {n: (0x0F, twin.position[n]) for n in nodes}
+        for controlword in (0x06, 0x07, 0x0F):
+            twin.cycle({n: (controlword, twin.position[n]) for n in nodes}, heartbeat=False)
+        port = twin.emulators[0]._ports[twin.buses[0]]
+        assert port.slow[: len(nodes)].all()  # each a transition (4): the state machine's
+        twin.cycle(targets, heartbeat=False)
+        assert not port.slow[: len(nodes)].any()  # all plain: the kernel took them
+        names = {d.node_id: d.name for d in twin.emulators[0].drives.values()}
+        twin.inject("emcy", names[nodes[0]])
+        twin.inject("silent", names[nodes[1]])
+        twin.cycle(targets, heartbeat=False)
+        assert list(port.slow[: len(nodes)]) == [True, True] + [False] * (len(nodes) - 2)
+        twin.cycle(targets, heartbeat=False)  # the fault reaction ends (14): Python's too
+        assert list(port.slow[: len(nodes)]) == [True, True] + [False] * (len(nodes) - 2)
+        twin.cycle(targets, heartbeat=False)  # in Fault, plain again; still silent
+        assert list(port.slow[: len(nodes)]) == [False, True] + [False] * (len(nodes) - 2)
+    finally:
+        twin.close()
