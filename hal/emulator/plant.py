@@ -102,6 +102,15 @@ class Plant:
         self._measure()
         if self._mapping_act is not None:
             self._mapping_act.start(self._wheel_angle, pose=self._pose())
+        if self.compiled:  # compile (or load) the kernel now, not in the first SYNC round
+            n = self._target.size
+            kernels.plant_command(
+                np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64),
+                np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), self._scaling.offset,
+                self._scaling.factor, np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool),
+                self.period, self._joint_idx, self._pull, np.zeros(n), np.zeros(self._mask.size),
+                np.zeros(self._mask.size), np.zeros(self._mask.size, dtype=bool),
+            )  # fmt: skip
 
     @property
     def sim_time(self) -> float:
