@@ -37,6 +37,14 @@ injection). ``imotion-sim`` (:mod:`hal.emulator.main`) puts them on ``unix`` bus
   every frame waiting on the buses and ticks the heartbeats at ``now`` (the emulator's clock,
   injectable), without any thread. :meth:`DriveEmulator.on_sync` runs one round directly.
 
+**Compiled round.** Where numba is available (``compiled``, default
+:func:`controller.model.jit.available`) the drives' hot values live in one
+:class:`~hal.emulator.bank.DriveBank`, the frames come in whole through
+:class:`~hal.emulator.inbox.Inbox` (RPDOs straight into the bank) and a bus's SYNC is one
+call for all its plain drives (:func:`hal.emulator.kernels.sync_drives`); the others, and
+every transition, fault and EMCY, take the drives' Python path, which is also the whole of
+the ``IMOTION_JIT=0`` emulator. Same frames either way (``tests/test_emulator_kernels.py``).
+
 Every public method takes the emulator's lock, so injections and the API are safe from other
 threads while the threads run.
 """
