@@ -333,6 +333,12 @@ class MujocoBackend(HardwareInterface):
         self._faults.clear()
         self._state = HardwareState.FINALIZED
 
+    @property
+    def servo_mask(self) -> np.ndarray:
+        """Servo on/off per joint of :attr:`joint_names` as last set (the array itself:
+        read it, do not write it)."""
+        return self._servo_mask
+
     def set_servo_mask(self, enabled: Sequence[bool] | np.ndarray) -> None:
         """Servo on/off per joint of :attr:`joint_names` while ACTIVE (the drive emulator
         enables each drive on its own). A joint switched on holds its measured position; a

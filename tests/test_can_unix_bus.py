@@ -280,3 +280,32 @@ def test_records_in_and_out_whole(channel):
         records, others = master.recv_records(True)
         assert [m.arbitration_id for m in others] == [0x082]
         assert [f[0] for r in records for f in frames(r)] == [0x081]
+
+
+@pytest.mark.parametrize("hold", [True, False])
+def test_hold_frames_sends_encoded_frames_as_send_raw_would(channel, hold):
+    """The emulator's compiled TPDOs: held with hold_pdos (one record with the next flush),
+    else one record at once; beyond a record, frame by frame, in order."""
+    encoded = [encode(message(0x181 + k % 4, k.to_bytes(6, "little"))) for k in range(400)]
+    with UnixBus(channel, hold_pdos=hold) as emu, UnixBus(channel) as master:
+        assert emu.recv_raw() == []  # accepts the master
+        emu.hold_frames(b"".join(encoded[:3]))
+        if hold:
+            assert select.select([master], [], [], 0.0)[0] == []  # held
+            emu.flush()
+        records, _ = master.recv_records()
+        for _ in range(100):  # bounded: until the record came
+            if records:
+                break
+            select.select([master], [], [], 0.05)
+            records, _ = master.recv_records()
+        assert records == [b"".join(encoded[:3])]  # one record, as sent
+        emu.hold_frames(b"".join(encoded))  # over MAX_RECORD: split at frame boundaries
+        emu.flush()
+        got: list[tuple[float, int, bytes]] = []
+        for _ in range(100):
+            got += master.recv_raw()
+            if len(got) >= len(encoded):
+                break
+            select.select([master], [], [], 0.05)
+        assert [int.from_bytes(d, "little") for _, _, d in got] == list(range(400))

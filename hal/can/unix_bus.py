@@ -35,7 +35,8 @@ and four threads per frame (~3 ms per SYNC round trip here).
 
 The frames and records on the wire: :mod:`hal.can.unix_wire`. Besides python-can's API, two
 fast paths without a :class:`can.Message` per frame: :meth:`UnixBus.send_raw` /
-:meth:`UnixBus.recv_raw` (the emulator) and :meth:`UnixBus.recv_frames` (the CAN master,
+:meth:`UnixBus.recv_raw` and :meth:`UnixBus.hold_frames` (frames it encodes itself) (the
+emulator) and :meth:`UnixBus.recv_frames` (the CAN master,
 :mod:`hal.can.cycle`, where a bus offers it).
 """
 
@@ -198,6 +199,27 @@ class UnixBus(can.BusABC):
             self._hold(frame)
         else:
             self._send_record(frame)
+
+    def hold_frames(self, encoded: bytes) -> None:
+        """Send classic frames already in the wire format (:mod:`hal.can.unix_wire`), held
+        with ``hold_pdos`` as :meth:`send_raw` would hold them one by one (the caller sends
+        only PDOs this way: the emulator's compiled TPDOs), else at once as one record."""
+        size = len(encoded)
+        if self.hold_pdos and self._held_size + size <= MAX_RECORD:
+            self._held.append(encoded)
+            self._held_size += size
+            return
+        if not self.hold_pdos and size <= MAX_RECORD:
+            self._send_record(encoded)
+            return
+        start = 0  # more than a record holds: frame by frame
+        while start < size:
+            end = start + HEADER.size + encoded[start + 6]
+            if self.hold_pdos:
+                self._hold(encoded[start:end])
+            else:
+                self._send_record(encoded[start:end])
+            start = end
 
     def recv_raw(self) -> list[tuple[float, int, bytes]]:
         """Every waiting classic 11-bit data frame as ``(timestamp [s], identifier, data)``

@@ -42,10 +42,12 @@ from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 from canopen import LocalNode
 
 from hal.can.scaling import I32_MAX, I32_MIN, delta_i32, wrap_i32
 from hal.emulator import pdo
+from hal.emulator.bank import INT, BoolField, IntField, own_row
 from hal.emulator.codes import (
     EMCY_COMMUNICATION,
     EMCY_DEVICE_SPECIFIC,
@@ -84,19 +86,44 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 _EMCY = struct.Struct("<HB5s")
+_CSP = struct.Struct("<Hi")
+_WAITING, _RX_FRESH, _RX_ORDER = INT["waiting"], INT["rx_fresh"], INT["rx_order"]
+_RX_CONTROLWORD, _RX_TARGET = INT["rx_controlword"], INT["rx_target"]
 
 _REACTIONS = (PowerState.FAULT_REACTION_ACTIVE, PowerState.QUICK_STOP_ACTIVE)
+_REACTION_PATTERNS = tuple(state.pattern for state in _REACTIONS)
+_STATE = INT["state"]
 
 #: Sends one CAN frame: (11-bit identifier, data).
 Sender = Callable[[int, bytes], None]
 
 
 class EmulatedDrive(DriveObjects):
-    """The slave ``node_id`` named ``name`` (a joint or wheel), object dictionary from ``eds``."""
+    """The slave ``node_id`` named ``name`` (a joint or wheel), object dictionary from ``eds``.
 
-    def __init__(self, name: str, node_id: int, eds: str | Path, send: Sender):
+    ``rows``: the drive's int and float rows of the emulator's
+    :class:`hal.emulator.bank.DriveBank` (default: rows of its own).
+    """
+
+    #: The node neither receives nor sends anything (fault injection).
+    silent = BoolField("silent")
+    #: TPDOs leave this many SYNCs late (fault injection).
+    tpdo_delay = IntField("tpdo_delay")
+    nmt_state = IntField("nmt_state")
+    _syncs = IntField("syncs")
+    _reaction_cycles = IntField("reaction_cycles")
+
+    def __init__(
+        self,
+        name: str,
+        node_id: int,
+        eds: str | Path,
+        send: Sender,
+        rows: tuple[np.ndarray, np.ndarray] | None = None,
+    ):
         if not 1 <= node_id <= 127:
             raise ValueError(f"drive {name}: node id {node_id} is outside 1..127")
+        self._ints, self._floats = own_row() if rows is None else rows
         self.name = name
         self.node_id = node_id
         try:
@@ -115,15 +142,15 @@ class EmulatedDrive(DriveObjects):
         self.node.add_read_callback(self._on_read)
         self.node.add_write_callback(self._on_write)
         self._send = send
-        self.sm = DriveStateMachine()
+        self.sm = DriveStateMachine(self._ints)
+        #: The COB-ID :meth:`routes` gives to the controlword + target RPDO (-1: none).
+        self.csp_route = -1
         #: Called when a COB-ID the emulator routes on changes (RPDO, SYNC, heartbeat).
         self.on_routes_changed: Callable[[], None] = lambda: None
         # ---- fault injection (hal.emulator.faults) ----
-        #: The node neither receives nor sends anything.
         self.silent = False
         #: The node sends no heartbeat.
         self.heartbeat_muted = False
-        #: TPDOs leave this many SYNCs late.
         self.tpdo_delay = 0
         # ---- process values [counts], [counts/s] ----
         self.actual = 0
@@ -174,11 +201,16 @@ class EmulatedDrive(DriveObjects):
             0x000: self.on_nmt,
             0x600 + self.node_id: self.on_sdo,
         }
+        csp = int(self._ints[INT["csp_rpdo"]])
+        csp_handler = None
         for i, layout in enumerate(self._rpdo_layouts):
             if layout is not None and layout.enabled:
-                table[layout.cob_id] = self._rpdo_handler(i)
+                table[layout.cob_id] = handler = self._rpdo_handler(i)
+                if i == csp:
+                    csp_handler = handler
         if self._consumer_node:
             table[0x700 + self._consumer_node] = self.on_heartbeat
+        self.csp_route = next((i for i, h in table.items() if h is csp_handler), -1)
         return table
 
     @property
@@ -229,11 +261,47 @@ class EmulatedDrive(DriveObjects):
             log.info("drive %s: master heartbeat back", self.name)
 
     def _rpdo_handler(self, i: int) -> Callable[[bytes, float], None]:
+        ints = self._ints
+        if i == ints[INT["csp_rpdo"]]:
+            return self._csp_handler(i)
+
         def handler(data: bytes, now: float) -> None:
             if not self.silent and self.nmt_state == NMT_OPERATIONAL:
                 self._rpdo_data[i] = data
                 if i not in self._rpdo_waiting:
                     self._rpdo_waiting.append(i)
+                    ints[_WAITING] = len(self._rpdo_waiting)
+
+        return handler
+
+    def _csp_handler(self, i: int) -> Callable[[bytes, float], None]:
+        """The RPDO ``i`` mapped controlword + target: kept in the bank row (``rx_*``) for the
+        SYNC, with its place among the other RPDOs received; a short one goes the way of the
+        others (the SYNC ignores it with a warning)."""
+        ints, size, unpack = self._ints, _CSP.size, _CSP.unpack_from
+
+        def handler(data: bytes, now: float) -> None:
+            if self.silent or self.nmt_state != NMT_OPERATIONAL:
+                return
+            waiting = self._rpdo_waiting
+            if len(data) < size:
+                if ints[_RX_FRESH]:
+                    waiting.insert(int(ints[_RX_ORDER]), i)
+                    ints[_RX_FRESH] = 0
+                elif i not in waiting:
+                    waiting.append(i)
+                self._rpdo_data[i] = data
+                ints[_WAITING] = len(waiting)
+                return
+            if i in waiting:  # a short one came first: this one takes its place
+                ints[_RX_ORDER] = waiting.index(i)
+                waiting.remove(i)
+                self._rpdo_data[i] = None
+                ints[_WAITING] = len(waiting)
+            elif not ints[_RX_FRESH]:
+                ints[_RX_ORDER] = len(waiting)
+            ints[_RX_CONTROLWORD], ints[_RX_TARGET] = unpack(data)
+            ints[_RX_FRESH] = 1
 
         return handler
 
@@ -245,14 +313,24 @@ class EmulatedDrive(DriveObjects):
             self.sm.complete_reactions()
             self._reaction_cycles = 0
         fresh_target = False
-        if self._rpdo_waiting and self.nmt_state == NMT_OPERATIONAL:
-            codecs, received = self._rpdo_codecs, self._rpdo_data
-            for i in self._rpdo_waiting:
+        ints = self._ints
+        if (self._rpdo_waiting or ints[_RX_FRESH]) and self.nmt_state == NMT_OPERATIONAL:
+            codecs, received, order = self._rpdo_codecs, self._rpdo_data, self._rpdo_waiting
+            if ints[_RX_FRESH]:
+                order.insert(int(ints[_RX_ORDER]), -1)  # -1: the CSP RPDO, in the bank
+                ints[_RX_FRESH] = 0
+            for i in order:
+                if i < 0:
+                    self.target = int(ints[_RX_TARGET])
+                    self._apply_controlword(int(ints[_RX_CONTROLWORD]))
+                    fresh_target = True
+                    continue
                 data, codec = received[i], codecs[i]
                 received[i] = None
                 if data is not None and codec is not None and codec(data):
                     fresh_target = True
-            self._rpdo_waiting.clear()
+            order.clear()
+            ints[_WAITING] = 0
         self._after_state_change(fresh_target)
 
     def setpoint(self) -> tuple[int, bool]:
@@ -294,12 +372,13 @@ class EmulatedDrive(DriveObjects):
         while self._delayed and (self._delayed[0][0] <= self._syncs or not self.tpdo_delay):
             _, cob_id, data = self._delayed.popleft()
             self._send(cob_id, data)
+        self._ints[INT["delayed"]] = len(self._delayed)
 
     def tick(self, now: float) -> None:
         """Time passes: heartbeat production, the master-heartbeat watchdog, and reactions
         that no SYNC ends (they end after :data:`REACTION_TIMEOUT`)."""
         self._now = now
-        if self.sm.state in _REACTIONS:
+        if self._ints[_STATE] in _REACTION_PATTERNS:  # (sm.state in _REACTIONS, cheaper)
             if self._reaction_since is None:
                 self._reaction_since = now
             elif now - self._reaction_since > REACTION_TIMEOUT:

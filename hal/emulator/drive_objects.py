@@ -24,17 +24,28 @@ import logging
 from collections import deque
 from collections.abc import Callable
 
+import numpy as np
 from canopen import LocalNode, objectdictionary
 from canopen.sdo import SdoAbortedError
 
 from hal.emulator import pdo
+from hal.emulator.bank import (
+    INT,
+    TPDO_STATUS_POSITION,
+    TPDO_VELOCITY,
+    FloatField,
+    IntField,
+    OptionalFloatField,
+)
 from hal.emulator.codes import ABORT_VALUE_RANGE, CSP_MODE, FOLLOWING_ERROR_OFF
-from hal.emulator.drive_state import DriveStateMachine
+from hal.emulator.drive_state import DriveStateMachine, StateField
 
 log = logging.getLogger(__name__)
 
 _TPDOS = ((0x1800, 0x1A00), (0x1801, 0x1A01), (0x1802, 0x1A02), (0x1803, 0x1A03))
 _RPDOS = ((0x1400, 0x1600), (0x1401, 0x1601), (0x1402, 0x1602), (0x1403, 0x1603))
+#: The mapping of the master's RPDO1 (controlword + target), kept in the bank when received.
+_CSP_RPDO = ((0x6040, 0), (0x607A, 0))
 
 
 class DriveObjects:
@@ -43,11 +54,17 @@ class DriveObjects:
     name: str
     node: LocalNode
     sm: DriveStateMachine
-    actual: int
-    velocity: int
-    target: int
-    _hold: int
-    _controlword: int
+    # The values a SYNC round touches, in the drive's bank rows (hal.emulator.bank).
+    _ints: np.ndarray
+    _floats: np.ndarray
+    actual = IntField("actual")
+    velocity = IntField("velocity")
+    target = IntField("target")
+    _hold = IntField("hold")
+    _controlword = IntField("controlword")
+    _fe_window = IntField("fe_window")
+    _fe_time = FloatField("fe_time")
+    _outside_since = OptionalFloatField("outside_since")
     _now: float
     _history: deque[int]
     _error_code: int
@@ -70,11 +87,8 @@ class DriveObjects:
     _rpdo_data: list[bytes | None]
     #: RPDOs received since the last SYNC (indices into :attr:`_rpdo_data`).
     _rpdo_waiting: list[int]
-    _fe_window: int
-    _fe_time: float
     _abort_option: int
-    _outside_since: float | None
-    _last_state: object
+    _last_state = StateField("last_state")
     on_routes_changed: Callable[[], None]
 
     def _apply_controlword(self, value: int) -> None:
@@ -231,6 +245,31 @@ class DriveObjects:
         self._rpdo_data = [None] * len(self._rpdo_layouts)
         self._rpdo_waiting = []
         self._pending_pdo = False
+        self._bank_pdos()
+
+    def _bank_pdos(self) -> None:
+        """The PDO configuration in the bank row, for the compiled round (hal.emulator.bank):
+        which RPDO carries controlword + target, the TPDOs' kinds, COB-IDs and types, and
+        whether every TPDO is a kind the compiled round encodes."""
+        ints = self._ints
+        ints[INT["csp_rpdo"]] = next(
+            (
+                i
+                for i, layout in enumerate(self._rpdo_layouts)
+                if layout is not None and layout.enabled and layout.entries == _CSP_RPDO
+            ),
+            -1,
+        )
+        ints[INT["waiting"]] = 0
+        ints[INT["rx_fresh"]] = 0
+        enabled = [t for t in self._tpdo_layouts if t is not None and t.enabled]
+        kinds = [_tpdo_kind(layout) for layout in enabled]
+        ints[INT["fast"]] = all(kinds) and len(enabled) <= 4
+        ints[INT["tpdos"]] = len(enabled)
+        for k, (kind, layout) in enumerate(zip(kinds[:4], enabled[:4], strict=True)):
+            ints[INT[f"tpdo_kind{k}"]] = kind
+            ints[INT[f"tpdo_cob{k}"]] = layout.cob_id
+            ints[INT[f"tpdo_type{k}"]] = layout.trans_type
 
     def _rpdo_codec(self, layout: pdo.PdoLayout) -> Callable[[bytes], bool]:
         """Applies an RPDO's data to the drive; True when it carried a target (0x607A)."""
@@ -253,7 +292,7 @@ class DriveObjects:
                     self.node.data_store.setdefault(index, {})[subindex] = var.encode_raw(value)
             return fresh
 
-        if entries != ((0x6040, 0), (0x607A, 0)):
+        if entries != _CSP_RPDO:
             return apply
 
         def apply_csp(data: bytes) -> bool:  # controlword + target, the master's RPDO1
@@ -306,6 +345,16 @@ class SdoSink:
         self._send(can_id, bytes(data))
 
 
+def _tpdo_kind(layout: pdo.PdoLayout) -> int:
+    """The bank's kind of a TPDO's mapping (:data:`hal.emulator.bank.TPDO_VELOCITY`, ...), 0
+    for a mapping only the Python codec encodes."""
+    if layout.entries == ((0x6041, 0), (0x6064, 0)) and layout.packer.format == "<Hi":
+        return TPDO_STATUS_POSITION
+    if layout.entries == ((0x606C, 0),) and layout.packer.format == "<i":
+        return TPDO_VELOCITY
+    return 0
+
+
 def _variable(node: LocalNode, index: int, subindex: int) -> objectdictionary.ODVariable:
     obj = node.object_dictionary[index]
     if isinstance(obj, objectdictionary.ODVariable):
@@ -322,7 +371,7 @@ def _history_length(node: LocalNode) -> int:
 
 def _rebooted(sm: DriveStateMachine) -> DriveStateMachine:
     refuse = sm.refuse_enable
-    sm = DriveStateMachine()
+    sm = DriveStateMachine(sm._ints)  # the same bank row
     sm.refuse_enable = refuse
     sm.boot()
     return sm

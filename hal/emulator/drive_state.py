@@ -38,6 +38,11 @@ from __future__ import annotations
 
 import enum
 from collections import deque
+from typing import Any
+
+import numpy as np
+
+from hal.emulator.bank import BoolField, IntField, own_row
 
 #: Controlword bits.
 CW_SWITCH_ON = 0x0001
@@ -134,14 +139,41 @@ def decode_command(controlword: int) -> Command:
     return Command.SWITCH_ON
 
 
+_BY_PATTERN = {state.pattern: state for state in PowerState}
+
+
+class StateField:
+    """A :class:`PowerState` kept as its pattern in column ``name`` of the owner's bank row
+    (:mod:`hal.emulator.bank`)."""
+
+    def __init__(self, name: str):
+        self.column = IntField(name).column
+
+    def __get__(self, obj: Any, owner: type | None = None) -> PowerState:
+        return _BY_PATTERN[int(obj._ints[self.column])]
+
+    def __set__(self, obj: Any, value: PowerState) -> None:
+        obj._ints[self.column] = value.pattern
+
+
 class DriveStateMachine:
     """One drive's power state machine.
 
     ``quick_stop_option`` is 0x605A: 0..4 end the quick stop in Switch on disabled (12),
     5..8 stay in Quick stop active until enable operation (16) or disable voltage (12).
+    Its values live in ``ints``, the drive's int row of a :class:`hal.emulator.bank.DriveBank`
+    (default: a row of its own).
     """
 
-    def __init__(self) -> None:
+    state = StateField("state")
+    quick_stop_option = IntField("quick_stop_option")
+    refuse_enable = BoolField("refuse_enable")
+    warning = BoolField("warning")
+    following_error = BoolField("following_error")
+    _controlword = IntField("sm_controlword")
+
+    def __init__(self, ints: np.ndarray | None = None) -> None:
+        self._ints = own_row()[0] if ints is None else ints
         self.state = PowerState.NOT_READY_TO_SWITCH_ON
         #: The last transition numbers taken, oldest first (for tests and logs).
         self.transitions: deque[int] = deque(maxlen=64)

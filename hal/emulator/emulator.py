@@ -37,6 +37,14 @@ injection). ``imotion-sim`` (:mod:`hal.emulator.main`) puts them on ``unix`` bus
   every frame waiting on the buses and ticks the heartbeats at ``now`` (the emulator's clock,
   injectable), without any thread. :meth:`DriveEmulator.on_sync` runs one round directly.
 
+**Compiled round.** Where numba is available (``compiled``, default
+:func:`controller.model.jit.available`) the drives' hot values live in one
+:class:`~hal.emulator.bank.DriveBank`, the frames come in whole through
+:class:`~hal.emulator.inbox.Inbox` (RPDOs straight into the bank) and a bus's SYNC is one
+call for all its plain drives (:func:`hal.emulator.kernels.sync_drives`); the others, and
+every transition, fault and EMCY, take the drives' Python path, which is also the whole of
+the ``IMOTION_JIT=0`` emulator. Same frames either way (``tests/test_emulator_kernels.py``).
+
 Every public method takes the emulator's lock, so injections and the API are safe from other
 threads while the threads run.
 """
@@ -56,11 +64,15 @@ from typing import Any
 import can
 import numpy as np
 
+from controller.model import jit
 from controller.model.robot import Robot, load_robot
 from hal.can.drive_profile import DriveProfile, drives_path, eds_path, load_drive_profile
 from hal.can.unix_bus import INTERFACE as UNIX
+from hal.emulator import kernels
+from hal.emulator.bank import DriveBank
 from hal.emulator.drive import EmulatedDrive
 from hal.emulator.faults import ActiveFault, FaultableBus, FaultInjector
+from hal.emulator.inbox import Inbox
 from hal.emulator.plant import Plant
 from hal.emulator.port import Port
 
@@ -87,6 +99,8 @@ class DriveEmulator:
     ``period`` [s] is the simulated time per SYNC (default: 1 / the profile's ``rate_hz``).
     ``channels`` overrides the python-can ``(interface, channel)`` of profile buses.
     ``clock`` [s] drives heartbeats (default :func:`time.monotonic`).
+    ``compiled``: the SYNC rounds through :mod:`hal.emulator.kernels` (default: where
+    :func:`controller.model.jit.available`), else the per-drive Python of every drive.
     """
 
     def __init__(
@@ -96,6 +110,7 @@ class DriveEmulator:
         period: float | None = None,
         channels: Mapping[str, tuple[str, str]] | None = None,
         clock: Callable[[], float] = time.monotonic,
+        compiled: bool | None = None,
     ):
         self.robot = robot if isinstance(robot, Robot) else load_robot(robot)
         self.profile = profile or load_drive_profile(drives_path(self.robot), self.robot)
@@ -120,16 +135,28 @@ class DriveEmulator:
             interface, channel = overrides.get(bus_name, ("virtual", f"hil-{instance}-{bus_name}"))
             self._ports[bus_name] = Port(bus_name, interface, channel, [])
         directory = drives_path(self.robot).parent
-        for name, config in self.profile.drives.items():
+        self.compiled = jit.available() if compiled is None else bool(compiled)
+        #: Every drive's hot values, row = plant index (:mod:`hal.emulator.bank`).
+        self.bank = DriveBank(len(self.profile.drives))
+        for k, (name, config) in enumerate(self.profile.drives.items()):
             port = self._ports[config.bus]
             drive = EmulatedDrive(name, config.node_id, eds_path(self.profile, name, directory),
-                                  port.send)  # fmt: skip
+                                  port.send, self.bank.rows(k))  # fmt: skip
             drive.on_routes_changed = self._routes_changed(port)
             port.drives.append(drive)
             port.indices.append(len(self.drives))
             self.drives[name] = drive
         self._order = list(self.drives.values())  # plant order = profile order
-        self.plant = Plant(self.robot, self.profile, self.period)
+        self.plant = Plant(self.robot, self.profile, self.period, compiled=self.compiled)
+        self._setpoints = np.empty(len(self._order), dtype=np.int64)
+        self._torque = np.empty(len(self._order), dtype=bool)
+        self._now = np.zeros(1)  # [s] time.time() of a SYNC's TPDOs, and its wire bytes
+        self._now_bytes = self._now.view(np.uint8)
+        self._port_index = {name: k for k, name in enumerate(self._ports)}
+        self._inbox: Inbox | None = None
+        if self.compiled:
+            self._warm_up()
+            self._inbox = Inbox(list(self._ports.values()), self.bank.ints, self._frame)
         self.plant.start()
         positions = self.plant.position_counts()
         for drive, position in zip(self._order, positions, strict=True):
@@ -300,8 +327,11 @@ class DriveEmulator:
             self._step()
             for name in buses if buses is not None else self._ports:
                 port = self._ports[name]
+                if port.dirty:
+                    port.rebuild()
                 if not port.bus_off:
-                    self._sync(port, list(range(len(port.drives))))
+                    everyone = list(range(len(port.drives)))
+                    self._sync(port, everyone, np.array(port.indices, dtype=np.int64))
                     port.flush()
 
     # ----------------------------------------------------------------------- injection
@@ -336,7 +366,7 @@ class DriveEmulator:
         if group is not None or can_id == SYNC_COB_ID:
             if group is not None and not port.bus_off:
                 start = time.perf_counter()
-                self._sync(port, group)
+                self._sync(port, group, port.sync_slots[can_id])
                 port.flush()  # this bus's TPDOs now, in one record (a hold_pdos bus)
                 if self.record_sync_times:
                     self.sync_times.append(time.perf_counter() - start)
@@ -351,33 +381,69 @@ class DriveEmulator:
             for handler in handlers:
                 handler(data, now)
 
-    def _sync(self, port: Port, group: list[int]) -> None:
-        """SYNC on ``port`` for its drives ``group`` (module doc: a new round steps first)."""
+    def _sync(self, port: Port, group: list[int], slots: np.ndarray) -> None:
+        """SYNC on ``port`` for its drives ``group`` (positions on the bus; ``slots``: their
+        bank rows) (module doc: a new round steps first)."""
         if port.synced:
             self._step()
         port.synced = True
         drives = port.drives
         sim_time = self.plant.sim_time
-        for k in group:
-            drive = drives[k]
-            drive.latch()
-            drive.sample(sim_time)
+        if not self.compiled:
+            for k in group:
+                drive = drives[k]
+                drive.latch()
+                drive.sample(sim_time)
+            return
+        bank, out, ends, slow = self.bank, port.out, port.ends, port.slow
+        self._now[0] = time.time()  # the frames' time stamp (its bytes: self._now_bytes)
+        left = kernels.sync_drives(bank.ints, bank.floats, slots, sim_time,
+                                   self._now_bytes, out, ends, slow)  # fmt: skip
+        if not left:
+            if len(group) and ends[len(group) - 1]:
+                port.send_frames(out[: ends[len(group) - 1]].tobytes())
+            return
+        start = 0
+        for j, k in enumerate(group):  # a drive left to Python between plain ones: in order
+            if slow[j]:
+                drive = drives[k]
+                drive.latch()
+                drive.sample(sim_time)
+            elif ends[j] > start:
+                port.send_frames(out[start : ends[j]].tobytes())
+            start = int(ends[j])
 
     def _step(self) -> None:
         """The physics of one period with every drive's latched set-point; new actuals."""
-        order = self._order
-        setpoints = np.empty(len(order), dtype=np.int64)
-        torque = np.empty(len(order), dtype=bool)
-        for i, drive in enumerate(order):
-            setpoints[i], torque[i] = drive.setpoint()
-        self.plant.step(setpoints, torque)
-        positions = self.plant.position_counts().tolist()
-        velocities = self.plant.velocity_counts().tolist()
-        for drive, position, velocity in zip(order, positions, velocities, strict=True):
-            drive.move(position, velocity)
+        setpoints, torque = self._setpoints, self._torque
+        if self.compiled:
+            kernels.setpoints(self.bank.ints, setpoints, torque)
+            self.plant.step(setpoints, torque)
+            kernels.move(self.bank.ints, self.plant.position_counts(),
+                         self.plant.velocity_counts())  # fmt: skip
+        else:
+            order = self._order
+            for i, drive in enumerate(order):
+                setpoints[i], torque[i] = drive.setpoint()
+            self.plant.step(setpoints, torque)
+            positions = self.plant.position_counts().tolist()
+            velocities = self.plant.velocity_counts().tolist()
+            for drive, position, velocity in zip(order, positions, velocities, strict=True):
+                drive.move(position, velocity)
         for port in self._ports.values():
             port.synced = False
         self._cycles += 1
+
+    def _warm_up(self) -> None:
+        """Compile (or load) the kernels now, on a scratch bank, not in the first round."""
+        scratch = DriveBank(1)
+        slots = np.zeros(1, dtype=np.int64)
+        out = np.zeros(kernels.DRIVE_BYTES, dtype=np.uint8)
+        ends = np.zeros(1, dtype=np.int64)
+        kernels.sync_drives(scratch.ints, scratch.floats, slots, 0.0, self._now_bytes, out, ends,
+                            np.zeros(1, dtype=bool))  # fmt: skip
+        kernels.setpoints(scratch.ints, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=bool))
+        kernels.move(scratch.ints, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
 
     def _tick(self, now: float) -> None:
         for drive in self._order:
@@ -427,11 +493,12 @@ class DriveEmulator:
         """All buses in one thread: wait on their descriptors, then handle every frame waiting
         on any bus in the order they were sent; tick the heartbeats every :data:`TICK` [s]."""
         fds = {port.bus.fileno(): port for port in ports if port.bus is not None}
+        descriptors = list(fds)
         self._realtime()
         next_tick = 0.0
         while self._running.is_set():
             try:
-                ready, _, _ = select.select(list(fds), [], [], TICK)
+                ready, _, _ = select.select(descriptors, [], [], TICK)
             except (OSError, ValueError) as exc:
                 if self._running.is_set():
                     log.error("emulator: select failed, the emulator stops: %s", exc)
@@ -440,9 +507,14 @@ class DriveEmulator:
                 start = time.monotonic()
                 handled = 0
                 for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
-                    batch = self._handle(ports)  # the ticks below see every heartbeat
-                    handled += batch
-                    if not batch or self._clock() >= next_tick + TICK:  # ticks due too
+                    handled += self._handle([fds[fd] for fd in ready])  # the ticks below
+                    if self._clock() >= next_tick + TICK:  # see every heartbeat; ticks due
+                        break
+                    try:  # the buses that got more meanwhile (one system call for all)
+                        ready, _, _ = select.select(descriptors, [], [], 0.0)
+                    except (OSError, ValueError):
+                        break  # the next wait says why
+                    if not ready:
                         break
                 took = time.monotonic() - start
                 if took > SLOW_BATCH:
@@ -465,6 +537,8 @@ class DriveEmulator:
     def _handle(self, ports: list[Port]) -> int:
         """Every frame waiting on ``ports``, in the order they were sent (their timestamps):
         a SYNC round is then seen as the master sent it, however the buses were read."""
+        if self._inbox is not None:
+            return self._inbox.handle([self._port_index[port.name] for port in ports])
         frames: list[tuple[float, int, int, bytes]] = []
         for k, port in enumerate(ports):
             try:

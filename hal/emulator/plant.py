@@ -30,6 +30,7 @@ from controller.model.robot import Robot
 from hal.can.drive_profile import DriveProfile
 from hal.can.scaling import ScalingArray
 from hal.can.vehicle import VehicleMapping
+from hal.emulator import kernels
 from hal.interface import HardwareState, JointCommand
 from hal.mujoco_backend import MujocoBackend
 
@@ -41,9 +42,14 @@ _HALF = 2**31
 
 
 class Plant:
-    """Simulated joints of ``robot`` for the drives of ``profile`` (in profile order)."""
+    """Simulated joints of ``robot`` for the drives of ``profile`` (in profile order).
 
-    def __init__(self, robot: Robot, profile: DriveProfile, period: float):
+    ``compiled``: :meth:`step`'s arithmetic in one compiled call
+    (:func:`hal.emulator.kernels.plant_command`), else NumPy.
+    """
+
+    def __init__(self, robot: Robot, profile: DriveProfile, period: float, compiled: bool = False):
+        self.compiled = compiled
         self.names = tuple(profile.drives)
         wheels = profile.wheels
         self.period = float(period)
@@ -81,6 +87,9 @@ class Plant:
         self._position = np.zeros(n)  # measured [rad]/[m] (wheels: wheel angle)
         self._velocity = np.zeros(n)
         self._wheel_angle = np.zeros(len(wheels))
+        self._sim_time = 0.0
+        self._command = np.empty(self._mask.size)  # servo commands [rad]/[m] (compiled)
+        self._command_velocity = np.zeros(self._mask.size)
 
     # ---------------------------------------------------------------------------- set-up
 
@@ -93,10 +102,20 @@ class Plant:
         self._measure()
         if self._mapping_act is not None:
             self._mapping_act.start(self._wheel_angle, pose=self._pose())
+        if self.compiled:  # compile (or load) the kernel now, not in the first SYNC round
+            n = self._target.size
+            kernels.plant_command(
+                np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64),
+                np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), self._scaling.offset,
+                self._scaling.factor, np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool),
+                self.period, self._joint_idx, self._pull, np.zeros(n), np.zeros(self._mask.size),
+                np.zeros(self._mask.size), np.zeros(self._mask.size, dtype=bool),
+            )  # fmt: skip
 
     @property
     def sim_time(self) -> float:
-        return self.backend.sim_time
+        """Simulated time [s] (the backend's, as of the last step)."""
+        return self._sim_time
 
     def position_counts(self) -> np.ndarray:
         """Measured positions [counts] (int64, not wrapped), drive order."""
@@ -113,6 +132,9 @@ class Plant:
         values are fine), servos on where ``torque``; then the measured values are updated."""
         raw = np.asarray(setpoints, dtype=np.int64)
         torque = np.asarray(torque, dtype=bool)
+        if self.compiled:
+            self._step_compiled(raw, torque)
+            return
         delta = (raw - self._last_raw + _HALF) % _SPAN - _HALF
         self._target = np.where(self._started, self._target + delta, raw)
         self._started[:] = True
@@ -145,6 +167,27 @@ class Plant:
         self._torque_prev[:] = torque
         self._measure()
 
+    def _step_compiled(self, raw: np.ndarray, torque: np.ndarray) -> None:
+        """:meth:`step` with its arithmetic in one compiled call; the servo mask is set only
+        when it changes (setting the same one again changes nothing)."""
+        position, velocity = self._command, self._command_velocity
+        kernels.plant_command(
+            raw, torque, self._last_raw, self._target, self._started, self._scaling.offset,
+            self._scaling.factor, self._ref, self._ref_prev, self._torque_prev, self.period,
+            self._joint_idx, self._pull, self._position, position, velocity, self._mask,
+        )  # fmt: skip
+        if self._mapping_cmd is not None:
+            self._vehicle_step(torque, position, velocity)
+        backend = self.backend
+        if not np.array_equal(self._mask, backend.servo_mask):
+            backend.set_servo_mask(self._mask)
+        backend.write(JointCommand(position=position, velocity=velocity))
+        if backend.state is HardwareState.FAULT:  # diverged: reset to the initial pose
+            backend.reset_faults()
+            backend.activate()
+            backend.set_servo_mask(self._mask)
+        self._measure()
+
     def _vehicle_step(self, torque: np.ndarray, position: np.ndarray, velocity: np.ndarray) -> None:
         cmd = self._mapping_cmd
         assert cmd is not None
@@ -171,6 +214,7 @@ class Plant:
 
     def _measure(self) -> None:
         state = self.backend.read()
+        self._sim_time = state.stamp
         nj = self._nj
         self._position[self._joint_idx] = state.position[:nj]
         self._velocity[self._joint_idx] = state.velocity[:nj]

@@ -13,8 +13,11 @@ import logging
 from collections.abc import Callable
 
 import can
+import numpy as np
 
+from hal.can.unix_wire import HEADER, encode, frames
 from hal.emulator.drive import EmulatedDrive
+from hal.emulator.kernels import DRIVE_BYTES
 
 log = logging.getLogger(__name__)
 
@@ -40,7 +43,20 @@ class Port:
         self.routes: dict[int, list[Handler]] = {}
         #: SYNC COB-ID -> positions in :attr:`drives` of the drives it synchronises.
         self.sync_groups: dict[int, list[int]] = {}
+        #: SYNC COB-ID -> plant indices (bank rows) of the same drives.
+        self.sync_slots: dict[int, np.ndarray] = {}
+        #: The compiled round's buffers (:func:`hal.emulator.kernels.sync_drives`): frames
+        #: out, where each drive's end, which drives it left to Python.
+        self.out = np.zeros(0, dtype=np.uint8)
+        self.ends = np.zeros(0, dtype=np.int64)
+        self.slow = np.zeros(0, dtype=bool)
         self.dirty = True
+        #: Identifier -> bank row of the one drive whose controlword + target RPDO it is
+        #: (-1: a frame for the Python handlers), and a count of rebuilds (the inbox's
+        #: copy, :mod:`hal.emulator.inbox`, follows it).
+        self._fast = np.full(0x800, -1, dtype=np.int64)
+        self.routes_version = 0
+        self.fast_key: tuple[int, bool] = (-1, False)
         #: This bus had a SYNC since the last physics step.
         self.synced = False
         self.send_errors = 0
@@ -55,6 +71,10 @@ class Port:
         self.send_raw = getattr(bus, "send_raw", None)
         self.recv_raw = getattr(bus, "recv_raw", None)
         self._flush = getattr(bus, "flush", None)
+        self._hold_frames: Callable[[bytes], None] | None = getattr(bus, "hold_frames", None)
+        self._recv_records: Callable[[bool], tuple[list[bytes], list[can.Message]]] | None = (
+            getattr(bus, "recv_records", None)
+        )
 
     def flush(self) -> None:
         """Send what the bus holds (the TPDOs of a SYNC on a ``hold_pdos`` bus: one record)."""
@@ -65,6 +85,22 @@ class Port:
         except (can.CanError, OSError) as exc:
             self.send_errors += 1
             log.warning("bus %s: flush failed: %s", self.name, exc)
+
+    def send_frames(self, encoded: bytes) -> None:
+        """Send classic frames already in the ``unix`` wire format (:mod:`hal.can.unix_wire`;
+        the compiled round's TPDOs): held as they are on a bus that offers it, else frame by
+        frame as :meth:`send`."""
+        if self.bus is None or self.bus_off:
+            return
+        if self._hold_frames is not None:
+            try:
+                self._hold_frames(encoded)
+            except (can.CanError, OSError) as exc:
+                self.send_errors += 1
+                log.warning("bus %s: send failed: %s", self.name, exc)
+            return
+        for can_id, _, _, _, data in frames(encoded):
+            self.send(can_id, data)
 
     def send(self, can_id: int, data: bytes) -> None:
         bus = self.bus
@@ -84,15 +120,55 @@ class Port:
     def rebuild(self) -> None:
         """Routing table and SYNC groups from the drives' current configuration."""
         routes: dict[int, list[Handler]] = {}
-        for drive in self.drives:
+        fast = np.full(0x800, -1, dtype=np.int64)
+        for k, drive in enumerate(self.drives):
             for can_id, handler in drive.routes().items():
                 routes.setdefault(can_id, []).append(handler)
+            if 0 <= drive.csp_route < 0x800:
+                fast[drive.csp_route] = self.indices[k] if k < len(self.indices) else -1
+        for can_id, handlers in routes.items():
+            if len(handlers) != 1 and 0 <= can_id < 0x800:
+                fast[can_id] = -1  # several drives listen: their handlers, in order
         self.routes = routes
+        self._fast = fast
+        self.routes_version += 1
         groups: dict[int, list[int]] = {}
         for k, drive in enumerate(self.drives):
             groups.setdefault(drive.sync_cob_id, []).append(k)
         self.sync_groups = groups
+        self.sync_slots = {
+            can_id: np.array([self.indices[k] for k in group], dtype=np.int64)
+            for can_id, group in groups.items()
+        }
+        n = len(self.drives)
+        if self.ends.size != n:
+            self.out = np.zeros(n * DRIVE_BYTES, dtype=np.uint8)
+            self.ends = np.zeros(n, dtype=np.int64)
+            self.slow = np.zeros(n, dtype=bool)
         self.dirty = False
+
+    def fast_routes(self) -> np.ndarray:
+        """Identifier -> bank row of the drive whose controlword + target RPDO it is, -1
+        for the frames the Python handlers take (every one while the bus is off)."""
+        if self.bus_off:
+            return np.full(0x800, -1, dtype=np.int64)
+        return self._fast
+
+    def records(self) -> list[bytes]:
+        """Every frame waiting (no wait), as records of frames in the ``unix`` wire format
+        (:mod:`hal.can.unix_wire`): as received on a ``unix`` bus, else encoded here."""
+        if self.bus is None:
+            return []
+        if self._recv_records is not None:
+            records, others = self._recv_records(True)
+            if others:  # read by recv() before: they came first
+                records = [b"".join(encode(msg) for msg in others), *records]
+            return records
+        received = self.receive()
+        if not received:
+            return []
+        pack = HEADER.pack
+        return [b"".join(pack(i, 0, len(d), len(d), stamp) + d for stamp, i, d in received)]
 
     def receive(self) -> list[tuple[float, int, bytes]]:
         """Every frame waiting (no wait): ``(timestamp [s], identifier, data)`` of classic
