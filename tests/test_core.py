@@ -430,4 +430,19 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     for _ in range(30):
         core.cycle()
     assert core.motion is not None and core.ik.rows.limit.max_rows >= 1  # the held elbow
+    core.abort()
+    core.clear_alarms()
+    for _ in range(5):
+        core.cycle()
+    # The other hand held too: two control-point tasks in one level, each task's rows a
+    # slice of the stack that is contiguous in neither order.
+    hand = core.kin.pose(side)
+    line = paths.LinePath(hand, pin.SE3(hand.rotation, hand.translation + 0.02))
+    both = CartesianMotion(
+        core.kin, DT, side, line, (0.05, 1.0), (0.5, 2.0), held, span, hold_other=True
+    )
+    core.start(both)
+    for _ in range(30):
+        core.cycle()
+    assert core.motion is not None and len(core.ik.tasks) >= 2
     assert [len(k.signatures) for k in kernels] == before

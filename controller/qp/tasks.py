@@ -415,8 +415,8 @@ if _COMPILED:  # compile (or load) at import for Pinocchio's arrays: never in a 
     _control_point_task(
         np.zeros((2, 4, 3)), np.zeros((1, 2, 3)), np.zeros(1, dtype=np.int64), 1,
         np.zeros((4, 3)), np.zeros(0, dtype=np.int64), np.zeros((6, 1)), _placement, np.eye(3),
-        np.zeros(3), _one.rotation, _one.translation, np.zeros(6), 1.0, True,
-        np.zeros((8, 1), order="F")[1:7], np.zeros(6),
+        np.zeros(3), _one.rotation, _one.translation, np.zeros(6), 1.0, True, _rows,
+        np.zeros(6),
     )  # fmt: skip
     _control_point_rows(
         np.zeros((6, 2)), _placement[:3], _placement[3], np.eye(3), np.zeros(3),
