@@ -154,18 +154,9 @@ class Plant:
         position[:nj] = np.where(torque[ji], pulled, measured)
         velocity[:nj] = feed[ji]
         self._mask[:nj] = torque[ji]
-        if self._mapping_cmd is not None:
-            self._vehicle_step(torque, position, velocity)
-        backend = self.backend
-        backend.set_servo_mask(self._mask)
-        backend.write(JointCommand(position=position, velocity=velocity))
-        if backend.state is HardwareState.FAULT:  # diverged: reset to the initial pose
-            backend.reset_faults()
-            backend.activate()
-            backend.set_servo_mask(self._mask)
         self._ref_prev[:] = self._ref
         self._torque_prev[:] = torque
-        self._measure()
+        self._drive(torque, position, velocity)
 
     def _step_compiled(self, raw: np.ndarray, torque: np.ndarray) -> None:
         """:meth:`step` with its arithmetic in one compiled call; the servo mask is set only
@@ -176,6 +167,12 @@ class Plant:
             self._scaling.factor, self._ref, self._ref_prev, self._torque_prev, self.period,
             self._joint_idx, self._pull, self._position, position, velocity, self._mask,
         )  # fmt: skip
+        self._drive(torque, position, velocity)
+
+    def _drive(self, torque: np.ndarray, position: np.ndarray, velocity: np.ndarray) -> None:
+        """The period's commands to MuJoCo: the vehicle's part, the servo mask (set only when
+        it changes: setting the same one again changes nothing), one write, a diverged
+        simulation put back at its initial pose; then the measured values."""
         if self._mapping_cmd is not None:
             self._vehicle_step(torque, position, velocity)
         backend = self.backend
