@@ -58,3 +58,19 @@ def run_tool(name: str, *args: str) -> tuple[list[str], Any]:
     ).stdout
     lines = out.strip().splitlines()
     return lines, json.loads(lines[-1])
+
+
+def count_solves(monkeypatch: Any) -> list[int]:
+    """Counts the position-level IK solves (``PositionIK.solve``; a retry without the elbow
+    counts as one) from now on, through ``monkeypatch``: ``[count]``."""
+    from controller.motion.position_ik import PositionIK
+
+    count = [0]
+    solve = PositionIK.solve
+
+    def counted(self: Any, *args: Any, **kwargs: Any) -> Any:
+        count[0] += 1
+        return solve(self, *args, **kwargs)
+
+    monkeypatch.setattr(PositionIK, "solve", counted)
+    return count

@@ -12,9 +12,9 @@ from controller.contract.motion_specs import CartesianMoveSpec, JointMoveSpec
 from controller.errors import Refused
 from controller.gateway.planning.cartesian import plan_linear, plan_ptp
 from controller.model.redundant_axes import RedundantAxis
-from controller.motion.position_ik import PositionIK
 from controller.vocabulary import FrameType, ReturnCode, RightLeft
 from tests.planning_support import context
+from tests.support import count_solves
 
 RIGHT = RightLeft.RIGHT
 ELBOW = {RedundantAxis.RIGHT_ELBOW: True}
@@ -62,14 +62,7 @@ def test_a_line_leaving_the_reach_is_cannot_reach_saying_where_in_few_solves(mon
     is sampled; it leaves the reach near its end. Took 1571 IK solves (about 10 s on a loaded
     2-core machine) before the samples past the pass's first jump were no longer split."""
     ctx, _, _ = context("smartpal5")
-    count = [0]
-    solve = PositionIK.solve
-
-    def counted(self, *args, **kwargs):  # type: ignore[no-untyped-def]
-        count[0] += 1
-        return solve(self, *args, **kwargs)
-
-    monkeypatch.setattr(PositionIK, "solve", counted)
+    count = count_solves(monkeypatch)
     allowed = {**ELBOW, RedundantAxis.LUMBAR_RY: True}
 
     def forward(dx: float) -> CartesianMoveSpec | JointMoveSpec:

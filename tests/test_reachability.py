@@ -14,10 +14,10 @@ from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import RedundantAxis
 from controller.motion.motions import CartesianMotion
 from controller.motion.paths import ArcPath, LinePath
-from controller.motion.position_ik import POSITION_TOL, PositionIK
+from controller.motion.position_ik import POSITION_TOL
 from controller.motion.reachability import MAX_SAMPLES, SAMPLE_STEP, ReachabilityChecker
 from controller.vocabulary import RightLeft, UnitType
-from tests.support import kinematics
+from tests.support import count_solves, kinematics
 
 RIGHT, LEFT = RightLeft.RIGHT, RightLeft.LEFT
 DT = 0.002
@@ -101,19 +101,6 @@ def test_target_far_out_of_reach_is_refused_with_no_redundant_axis_either():
 #: IK solves a refusal may take (SmartPal V, 1.5 m forward with elbow and waist free: 1413
 #: before past-the-jump samples were no longer split, about 270 after).
 REFUSAL_SOLVES = 500
-
-
-def count_solves(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """Counts the position-level IK solves (a retry without the elbow counts as one)."""
-    count = [0]
-    solve = PositionIK.solve
-
-    def counted(self, *args, **kwargs):  # type: ignore[no-untyped-def]
-        count[0] += 1
-        return solve(self, *args, **kwargs)
-
-    monkeypatch.setattr(PositionIK, "solve", counted)
-    return count
 
 
 def test_a_line_leaving_the_reach_is_refused_where_it_does_in_few_solves(monkeypatch):
