@@ -7,7 +7,8 @@ Lifecycle, as in ros2_control::
     any --fault--> FAULT --reset_faults()--> INACTIVE (once the cause is gone)
     any --shutdown()--> FINALIZED
 
-Per cycle the loop calls :meth:`HardwareInterface.read` then :meth:`HardwareInterface.write`.
+Per cycle the loop calls :meth:`HardwareInterface.read` then :meth:`HardwareInterface.write`,
+and :meth:`HardwareInterface.advance` in the time left before the next cycle.
 All values are SI: [rad], [rad/s] for revolute joints, [m], [m/s] for prismatic ones (vehicle
 x/y, parallel fingers), in the order of :attr:`HardwareInterface.joint_names`.
 
@@ -91,6 +92,13 @@ class HardwareInterface(abc.ABC):
     @abc.abstractmethod
     def write(self, command: JointCommand) -> None:
         """Send one cycle's set-points (ignored unless ACTIVE)."""
+
+    def advance(self) -> None:
+        """Work :meth:`write` may leave for later, done now; the loop calls it in its slack,
+        after the cycle's step. A simulated backend advances its time here (the plant moves
+        while the controller sleeps, as a real one does); :meth:`read` does it first when it
+        was not called. Default: nothing to do (real drives move on their own)."""
+        return None
 
     @abc.abstractmethod
     def faults(self) -> list[HardwareFault]:

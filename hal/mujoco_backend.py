@@ -35,7 +35,11 @@ The robot's generated MJCF (``robot.xml``, never edited) is loaded with
 
 Lockstep timing: each :meth:`MujocoBackend.write` advances simulated time by exactly ``dt``
 (``substeps`` MuJoCo steps), in every configured state, so a control loop runs the same
-whether the servos are on or off. A command is the set-point for the *end* of the cycle: as a
+whether the servos are on or off. The steps are taken by :meth:`MujocoBackend.advance`, which
+the control loop calls in its slack after the cycle (the plant moves while the controller
+sleeps, as a real one does, and the physics is not the controller's compute time); a read,
+a write or any other look at the state takes them first when it was not called, so the
+simulation is the same either way. A command is the set-point for the *end* of the cycle: as a
 drive in cyclic synchronous position mode interpolates, the servo reference moves linearly
 from the previous set-point to the new one over the cycle (position and velocity, evaluated
 at each substep's midpoint). Measured on SmartPal V at dt = 2 ms, a 0.3 rad, 0.5 Hz sine on
@@ -104,6 +108,10 @@ _DIVERGENCE_SLICE = slice(
 )
 assert _DIVERGENCE_SLICE.stop - _DIVERGENCE_SLICE.start == len(_DIVERGENCE_WARNINGS)
 
+# What :meth:`MujocoBackend.advance` has to do: nothing; substeps on the compiled references;
+# substeps on the NumPy interpolation; substeps holding the controls as they are.
+_STEP_NONE, _STEP_REFERENCES, _STEP_FRACTIONS, _STEP_HOLD = range(4)
+
 
 def default_joint_names(robot: Robot) -> tuple[str, ...]:
     """Every joint of the profile: unit joints in the order of its units, then grippers."""
@@ -126,7 +134,8 @@ def default_substeps(dt: float) -> int:
 
 
 class MujocoBackend(HardwareInterface):
-    """Simulated drives for ``robot``, advanced ``dt`` [s] per :meth:`write` (lockstep)."""
+    """Simulated drives for ``robot``, advanced ``dt`` [s] per :meth:`write` (lockstep; the
+    steps taken by :meth:`advance`)."""
 
     def __init__(
         self,
@@ -208,6 +217,10 @@ class MujocoBackend(HardwareInterface):
         self._qpos = self._qvel = np.zeros(0)
         self._servo_mask = np.zeros(n, dtype=bool)  # which exposed joints have the servo on
         self._divergences = 0
+        #: The step the last :meth:`write` left for :meth:`advance` (``_STEP_*``), and the
+        #: set-points the Python interpolation moves ``_prev`` to after it.
+        self._pending = _STEP_NONE
+        self._next = np.zeros((2, n))
 
     # ----------------------------------------------------------------------------- queries
 
@@ -234,9 +247,12 @@ class MujocoBackend(HardwareInterface):
 
     @property
     def data(self) -> mujoco.MjData:
-        """The simulation state; for renderers (read it, do not step it). Once configured."""
+        """The simulation state; for renderers (read it, do not step it). Once configured.
+        The last :meth:`write`'s step is taken first when :meth:`advance` has not been."""
         if self._data is None:
             raise RuntimeError(f"MujocoBackend has no data in state {self._state.value}")
+        if self._pending:
+            self.advance()
         return self._data
 
     @property
@@ -330,6 +346,7 @@ class MujocoBackend(HardwareInterface):
         """Release the simulation. Any state -> FINALIZED."""
         self._model = None
         self._data = None
+        self._pending = _STEP_NONE
         self._faults.clear()
         self._state = HardwareState.FINALIZED
 
@@ -375,6 +392,8 @@ class MujocoBackend(HardwareInterface):
         data = self._data
         if data is None:
             raise RuntimeError(f"read() needs a configured backend, it is {self._state.value}")
+        if self._pending:
+            self.advance()
         return JointState(
             position=self._qpos[self._qadr],  # views kept since configure: gathers only
             velocity=self._qvel[self._dofadr],
@@ -382,7 +401,8 @@ class MujocoBackend(HardwareInterface):
         )
 
     def write(self, command: JointCommand) -> None:
-        """Apply the set-points (ACTIVE only) and advance the simulation by ``dt``."""
+        """Apply the set-points (ACTIVE only); the simulation advances by ``dt`` in
+        :meth:`advance` (the loop's slack), or at the latest when it is next looked at."""
         model, data = self._model, self._data
         if model is None or data is None:
             return
@@ -393,20 +413,19 @@ class MujocoBackend(HardwareInterface):
             raise ValueError(f"command.position has shape {position.shape}, expected ({n},)")
         if velocity.shape not in ((n,), (0,)):
             raise ValueError(f"command.velocity has shape {velocity.shape}, expected ({n},)")
-        end_time = data.time + self._dt
+        if self._pending:  # the previous write's step was not taken yet: first that one
+            self.advance()
+        pending = _STEP_HOLD
         if self._state is HardwareState.ACTIVE and self._compiled:
             # Contiguous float64 in (no copy when it is already): the kernel is built for it.
             position = np.ascontiguousarray(position)
             velocity = np.ascontiguousarray(velocity)
-            references = self._references
-            if _servo_references(position, velocity, self._prev, self._fraction_array, references):
-                ctrl = self._ctrl_pair
-                for j in range(self._substeps):
-                    ctrl[...] = references[j]
-                    mujoco.mj_step(model, data)
+            if _servo_references(
+                position, velocity, self._prev, self._fraction_array, self._references
+            ):
+                pending = _STEP_REFERENCES
             else:
                 self._accept(position, velocity)  # a non-finite set-point: FAULT, servos off
-                mujoco.mj_step(model, data, self._substeps)
         elif self._state is HardwareState.ACTIVE:
             np.subtract(position, self._q_prev, out=self._dq)
             if velocity.size:
@@ -416,18 +435,40 @@ class MujocoBackend(HardwareInterface):
             # Finite set-points give a finite sum of changes (an overflow takes the long way).
             finite = math.isfinite(self._delta_flat.dot(self._ones))
             if finite or self._accept(position, velocity):
-                prev, delta, scratch, ctrl = self._prev, self._delta, self._scratch, self._ctrl_pair
-                for fraction in self._fractions:
-                    np.multiply(delta, fraction, out=scratch)
-                    np.add(prev, scratch, out=ctrl)
-                    mujoco.mj_step(model, data)
-                self._q_prev[:] = position
+                q_next, v_next = self._next
+                q_next[:] = position
                 if velocity.size:
-                    self._v_prev[:] = velocity
+                    v_next[:] = velocity
                 else:
-                    self._v_prev.fill(0.0)
-            else:
-                mujoco.mj_step(model, data, self._substeps)
+                    v_next.fill(0.0)
+                pending = _STEP_FRACTIONS
+        self._pending = pending
+
+    def advance(self) -> None:
+        """Advance the simulation by ``dt`` [s] (``substeps`` MuJoCo steps) on the last
+        :meth:`write`'s set-points; nothing when that is done already. :meth:`read`,
+        :attr:`data` and every other look at the state do it first, so a caller that never
+        calls it sees the same simulation."""
+        pending = self._pending
+        if not pending:
+            return
+        self._pending = _STEP_NONE
+        model, data = self._model, self._data
+        if model is None or data is None:
+            return
+        end_time = data.time + self._dt
+        if pending == _STEP_REFERENCES:
+            ctrl, references = self._ctrl_pair, self._references
+            for j in range(self._substeps):
+                ctrl[...] = references[j]
+                mujoco.mj_step(model, data)
+        elif pending == _STEP_FRACTIONS:
+            prev, delta, scratch, ctrl = self._prev, self._delta, self._scratch, self._ctrl_pair
+            for fraction in self._fractions:
+                np.multiply(delta, fraction, out=scratch)
+                np.add(prev, scratch, out=ctrl)
+                mujoco.mj_step(model, data)
+            prev[...] = self._next
         else:
             mujoco.mj_step(model, data, self._substeps)
         if self._divergence_count() != self._divergences:

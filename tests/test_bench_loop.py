@@ -22,9 +22,14 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         "overruns",
         "start_cpu_us_p50",
         "start_cpu_us_max",
+        "plant_us_p99",
+        "compute_plus_plant_us_p99",
     }
     for run in result["per_run"]:
         assert run["cycles"] == 100
+        # The physics step runs in the slack, after the step the compute time measured.
+        assert 0 < run["plant_us"]["p50"] <= run["plant_us"]["p99"]
+        assert run["compute_plus_plant_us"]["p50"] > run["compute_us_p50"]
         assert 0 < run["cpu_us_p50"] <= run["cpu_us_p99"]
         assert all("cpu_p50" in seg for seg in run["segments"].values())
         assert len(run["load"]) == 3
@@ -58,7 +63,7 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         assert 0 < starts["start_p50"] and 0 < starts["first_p50"]
         assert starts["start_first_p50"] <= starts["start_first_max"]
     assert "piece medians by segment" in out and "identical work" in out
-    assert "per cycle [us]" in out and "median of 2 runs" in out
+    assert "per cycle [us]" in out and "median of 2 runs" in out and "plant_us" in out
     assert "motion start, thread CPU" in out
     assert "collision rows active in" in out and "by segment" in out
     floor = result["machine_floor"]  # as long as a run by default

@@ -372,6 +372,8 @@ def test_diverged_simulation_is_reset_and_reported(monkeypatch, tmp_path):
     before = hw.sim_time
     hw.data.qvel[0] = math.nan
     hw.write(JointCommand(start))
+    assert hw.state is HardwareState.ACTIVE  # the step is still to take
+    hw.advance()
     assert hw.state is HardwareState.FAULT
     assert hw.faults()[0].source == "mujoco"
     assert hw.sim_time > before  # time never goes backwards
@@ -379,6 +381,63 @@ def test_diverged_simulation_is_reset_and_reported(monkeypatch, tmp_path):
     np.testing.assert_allclose(state.position, start, atol=1e-9)
     assert np.isfinite(state.velocity).all()
     assert hw.reset_faults() is True
+
+
+def test_write_leaves_the_steps_to_advance_and_any_look_at_the_state_takes_them(monkeypatch):
+    """write() only sets the servo references; advance() (the loop's slack) takes the
+    substeps once; read(), data, sim_time and the next write() take them when it was not
+    called."""
+    hw = backend(dt=DT)  # 2 substeps
+    hw.activate()
+    steps = []
+    real_step = mujoco.mj_step
+    monkeypatch.setattr(mujoco, "mj_step", lambda *a: (steps.append(a), real_step(*a)))
+    q0 = hw.read().position.copy()
+    for look in (
+        hw.advance,
+        hw.read,
+        lambda: hw.data,
+        lambda: hw.sim_time,
+        lambda: hw.write(JointCommand(q0)),
+        lambda: hw.set_servo_mask(np.ones(len(q0), dtype=bool)),
+        hw.deactivate,
+    ):
+        hw.activate()
+        hw.write(JointCommand(q0 + 0.01))
+        assert steps == []
+        look()
+        assert sum(a[2] if len(a) == 3 else 1 for a in steps) == hw.substeps  # (m, d[, n])
+        hw.advance()  # nothing left (the write among the looks left its own step)
+        steps.clear()
+        hw.advance()
+        assert steps == []
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_simulation_is_the_same_with_or_without_advance(compiled: bool):
+    """The loop's advance() between cycles, or none (each read taking the step): the same
+    simulation to the last bit, through a servo mask change and a servo off."""
+    runs = []
+    for call_advance in (True, False):
+        hw = backend(dt=DT)
+        hw._compiled = compiled
+        hw.activate()
+        q0 = hw.read().position.copy()
+        mask = np.ones(len(q0), dtype=bool)
+        out = []
+        for k in range(30):
+            if k == 10:
+                mask[:3] = False
+                hw.set_servo_mask(mask)
+            if k == 20:
+                hw.deactivate()
+            hw.write(JointCommand(q0 + 0.1 * math.sin(0.3 * k), np.full(len(q0), 0.05)))
+            if call_advance:
+                hw.advance()
+            out.append(np.concatenate([hw.read().position, hw.read().velocity, hw.data.ctrl]))
+        runs.append(out)
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_the_collision_pass_is_off_only_when_no_geom_can_collide(monkeypatch):

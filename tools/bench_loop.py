@@ -43,6 +43,11 @@ The breakdown wraps the pieces with timers from outside (nothing in the core kno
 (the compute time as the daemon has it, no per-piece figures). The benchmark's own booking
 of each cycle (its row of figures, the collision shares) runs in the loop's slack, after the
 loop measured the step, as the garbage collector does: it is not the controller's work.
+So does the MuJoCo stand-in's physics step (``hw.advance()``, as in the daemon: the plant
+moves while the controller sleeps): ``plant_us`` is its time, outside the compute time, and
+``compute_plus_plant_us`` the compute time with it added, the figure comparable with runs
+from before the step moved out of ``hw.write()`` (late cycles and overruns count it either
+way: it runs before the next deadline).
 
 Last, the machine's floor (:mod:`machine_floor`, ``--floor-seconds``, default as long as a
 run): a bare SCHED_FIFO thread sleeping to the same deadlines, nothing else. On shared
@@ -92,7 +97,7 @@ def _patch(obj: Any, name: str, value: Any) -> None:
 
 PIECES = ("read", "kinematics", "motion", "collision", "qp_build", "qp_solve", "write", "publish")
 #: Extra columns of :attr:`Breakdown.rows` after the pieces and "other".
-COMPUTE, ROWS, ARM_ROWS, SEGMENT, CPU, START = range(len(PIECES) + 1, len(PIECES) + 7)
+COMPUTE, ROWS, ARM_ROWS, SEGMENT, CPU, START, PLANT = range(len(PIECES) + 1, len(PIECES) + 8)
 
 
 class Breakdown:
@@ -102,7 +107,7 @@ class Breakdown:
     def __init__(self, core: MotionCore, capacity: int, wrap: bool = True):
         """``wrap=False``: no timers (the pieces stay 0), only the compute time and rows."""
         self.now = dict.fromkeys(PIECES, 0)
-        self.rows = np.zeros((capacity, START + 1))
+        self.rows = np.zeros((capacity, PLANT + 1))
         self.n = 0
         self.wrap = wrap
         if wrap:
@@ -165,24 +170,19 @@ class Breakdown:
         arm_rows: bool,
         segment: int,
         start_ns: int = 0,
+        plant_ns: int = 0,
     ) -> None:
         """Close the cycle: wall-clock ``compute_ns`` and thread CPU ``cpu_ns`` of the step,
         ``rows`` collision rows, ``arm_rows`` some between the two arms, ``segment``: index
         of the running motion's segment (-1: none), ``start_ns``: thread CPU of the
-        ``core.start`` this step made (0: none; part of ``cpu_ns``)."""
+        ``core.start`` this step made (0: none; part of ``cpu_ns``), ``plant_ns``: the
+        stand-in's physics step after it, in the slack (``hw.advance()``, wall clock)."""
         if self.n < len(self.rows):
             row = self.rows[self.n]
             for i, name in enumerate(PIECES):
                 row[i] = self.now[name]
             row[len(PIECES)] = compute_ns - sum(self.now.values())
-            row[COMPUTE], row[ROWS], row[ARM_ROWS], row[SEGMENT], row[CPU], row[START] = (
-                compute_ns,
-                rows,
-                arm_rows,
-                segment,
-                cpu_ns,
-                start_ns,
-            )
+            row[COMPUTE:] = (compute_ns, rows, arm_rows, segment, cpu_ns, start_ns, plant_ns)
             self.n += 1
         for name in PIECES:
             self.now[name] = 0
@@ -255,6 +255,17 @@ class Breakdown:
         for k, name in ((names.index(n), n) for n in dict.fromkeys(names)):
             out[name] = figures(segment == k, steady & (rows[:, SEGMENT] == k))
         return out
+
+    def plant_summary(self) -> dict[str, dict[str, float]]:
+        """The stand-in's physics step in the slack [µs] p50/p99 (``plant_us``; not the
+        controller's work: on drives the plant moves by itself), and the compute time with it
+        added (``compute_plus_plant_us``: the cycle as measured while the step was part of
+        ``hw.write()``)."""
+        rows = self.rows[: self.n]
+        return {
+            "plant_us": _percentiles(rows[:, PLANT] / 1e3),
+            "compute_plus_plant_us": _percentiles((rows[:, COMPUTE] + rows[:, PLANT]) / 1e3),
+        }
 
     def cpu_summary(self) -> dict[str, float]:
         """The step's thread CPU time [µs] p50/p99 over the run: what the cycle costs with
@@ -404,9 +415,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     last: list[int] = []  # the step's figures, booked after it (outside its compute time)
 
-    def book() -> None:
+    def book(plant_ns: int = 0) -> None:
         """The last step's row of the breakdown and the collision figures: the benchmark's
-        own work, after the loop measured the step (the daemon has none of it)."""
+        own work, after the loop measured the step (the daemon has none of it);
+        ``plant_ns``: the physics step after it [ns]."""
         if not last:
             return
         compute, cpu, start_cpu, now = last
@@ -418,11 +430,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 between = bool(n_rows and arm_rows[collision.pairs].any())
                 d = collision.distances.distances[arm_rows]
                 closest["arms"] = min(closest["arms"], float(d.min(initial=math.inf)))
-        breakdown.end_cycle(compute, cpu, n_rows, between, now, start_cpu)
+        breakdown.end_cycle(compute, cpu, n_rows, between, now, start_cpu, plant_ns)
 
     def slack(left_ns: int) -> None:
         t0 = time.perf_counter_ns()
-        book()
+        core.hw.advance()  # the physics step, as the daemon's slack takes it
+        book(time.perf_counter_ns() - t0)
         if collector is not None:  # the garbage collector gets what the booking left
             collector(left_ns - (time.perf_counter_ns() - t0))
 
@@ -477,6 +490,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             f"max {stats[f'{name}_max']:8.1f}"
         )
     cpu = breakdown.cpu_summary()
+    plant = breakdown.plant_summary()
+    print(
+        f"{'plant_us':16s} p50 {plant['plant_us']['p50']:8.1f}  p99 "
+        f"{plant['plant_us']['p99']:8.1f}  (the stand-in's physics step, in the slack; compute "
+        f"+ it p50/p99 {plant['compute_plus_plant_us']['p50']:.1f}/"
+        f"{plant['compute_plus_plant_us']['p99']:.1f})"
+    )
     print(
         f"{'cpu_us':16s} p50 {cpu['p50']:8.1f}  p99 {cpu['p99']:8.1f}  "
         "(the step's thread CPU time: its cost without the time off the CPU)"
@@ -566,6 +586,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         **stats,
         "cpu_us_p50": cpu["p50"],
         "cpu_us_p99": cpu["p99"],
+        **plant,
         "identical_work_cpu_us": spread,
         "start_cpu_us_p50": starts["all"].get("start_first_p50", 0.0),
         "start_cpu_us_max": starts["all"].get("start_first_max", 0.0),
@@ -650,13 +671,16 @@ def main() -> int:
         "start_cpu_us_max",
     )
     median = {k: statistics.median(r[k] for r in runs) for k in keys}
+    for k in ("plant_us", "compute_plus_plant_us"):
+        median[f"{k}_p99"] = statistics.median(r[k]["p99"] for r in runs)
     if args.runs > 1:
         print(
             f"median of {args.runs} runs: compute p50 {median['compute_us_p50']:.1f} us, "
             f"p99 {median['compute_us_p99']:.1f} us (CPU p50 {median['cpu_us_p50']:.1f}, "
             f"p99 {median['cpu_us_p99']:.1f} us; motion start + first cycle CPU p50 "
-            f"{median['start_cpu_us_p50']:.1f}, max {median['start_cpu_us_max']:.1f} us), "
-            "late by > half a period "
+            f"{median['start_cpu_us_p50']:.1f}, max {median['start_cpu_us_max']:.1f} us; the "
+            f"physics step in the slack p99 {median['plant_us_p99']:.1f} us, compute + it p99 "
+            f"{median['compute_plus_plant_us_p99']:.1f} us), late by > half a period "
             f"{median['late_by_more_than_half_period']:g}, overruns {median['overruns']:g}; "
             f"load at the starts {[r['load'][0] for r in runs]}"
         )

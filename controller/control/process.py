@@ -12,6 +12,10 @@ Per cycle::
     urgent commands → other commands → MotionCore.cycle() → queue / soft-limit supervision
     → snapshot (:mod:`controller.control.publisher`) → answers
 
+and in the time left before the next deadline (the loop's slack): the hardware's deferred
+work (:meth:`~hal.interface.HardwareInterface.advance`: the MuJoCo stand-in's physics step),
+then the garbage collector.
+
 Commands (:mod:`controller.control.commands`) answer with a value or raise an
 :class:`~controller.errors.ImotionError` carrying its return code.
 """
@@ -89,7 +93,7 @@ class Controller(Commands):
             self._step,
             realtime=False,
             stats_capacity=max(1, round(rate_hz)),
-            slack=self.collector,
+            slack=self._slack,
         )
         self.overruns = OverrunWatch(self.loop, self.core)
         #: Deadline time [s] of the last cycle (the loop's ``t``), for the measured period.
@@ -144,6 +148,14 @@ class Controller(Commands):
             for request in executed:
                 request.done.set()
         return not self._shutdown_step()
+
+    def _slack(self, left_ns: int) -> None:
+        """After each step, before the next deadline: the hardware's deferred work (the
+        stand-in's physics step), then the garbage collector in what is left."""
+        start = time.monotonic_ns()
+        self.hw.advance()
+        if self.collector is not None:
+            self.collector(left_ns - (time.monotonic_ns() - start))
 
     def _execute_all(self, inbox: queue.SimpleQueue[Request], executed: list[Request]) -> None:
         while True:
