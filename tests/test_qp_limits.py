@@ -264,3 +264,36 @@ def test_the_compiled_axis_rows_equal_the_python_ones():
         stretched = kin.elbow_offset(RightLeft.RIGHT) < 0.01
         assert stretched == (trial % 5 == 0)  # both cases are met
         assert (lo1[axes.index(RedundantAxis.RIGHT_ELBOW)] == -INF) == stretched
+
+
+def test_every_held_axis_row_is_the_axis_jacobian_and_holds_its_value():
+    """All axes held (elbows, waist angles, vehicle coordinates, each read by kind in a few
+    array operations): each row is :func:`axis_jacobian` and its bound pulls the axis back
+    to its held value, compiled and in Python, at random postures."""
+    import pytest
+
+    from controller.model.redundant_axes import axis_jacobian, axis_value
+    from controller.qp.constraints.axes import HOLD_FRACTION
+
+    dt = 0.001
+    kin = kinematics("smartpal5")
+    axes = available_axes(kin)
+    assert any(a.is_lumbar for a in axes) and any(a.is_vehicle for a in axes)
+    rng = np.random.default_rng(5)
+    for compiled in (True, False):
+        rows = AxisRows(kin, axes, dt)
+        rows.limit._compiled = compiled and rows.limit._compiled
+        for _ in range(10):
+            kin.update(kin.home() + rng.normal(scale=0.2, size=kin.nv))
+            held_at = {axis: axis_value(kin, axis) for axis in axes}
+            rows.configure(kin, dict.fromkeys(axes, False), {}, np.zeros(kin.nv, dtype=bool))
+            kin.update(kin.home() + rng.normal(scale=0.2, size=kin.nv))
+            C, lo, hi = rows.rows(kin)
+            for i, axis in enumerate(axes):
+                np.testing.assert_array_equal(C[i], axis_jacobian(kin, axis))
+                if axis.is_elbow and kin.elbow_offset(axis.side) < 0.01:
+                    continue  # nearly stretched: free
+                error = held_at[axis] - axis_value(kin, axis)
+                if axis.is_elbow:
+                    error = math.remainder(error, math.tau)
+                assert lo[i] == hi[i] == pytest.approx(HOLD_FRACTION * error / dt, abs=1e-9)

@@ -23,7 +23,7 @@ import numpy as np
 
 from controller.model import jit
 from controller.model.kinematics import Kinematics
-from controller.model.redundant_axes import RedundantAxis, axis_jacobian, axis_joints, axis_value
+from controller.model.redundant_axes import RedundantAxis, axis_joints, axis_value
 from controller.qp.constraints import axes_kernel
 from controller.qp.constraints.braking import BRAKING_SHARE
 from controller.qp.constraints.drive import DifferentialDrive
@@ -89,6 +89,7 @@ class AxisLimit:
         #: (row, side) of the held elbows (free while nearly stretched).
         self._held_elbows: list[tuple[int, RightLeft]] = []
         self._no_box = np.zeros(kin.nv)
+        self._group_rows(kin)
 
     def configure(self, kin: Kinematics, setup: ConstraintSetup) -> None:
         """Masked axes are held at their values in ``kin``'s last update."""
@@ -126,6 +127,37 @@ class AxisLimit:
         self._kind, self._wrap, self._first, self._second = kind, wrap, first, second
         self._value = np.zeros(n)
         self._held_elbows = [(k, side) for k, _, _, side in held if side is not None]
+        self._group_rows(kin)
+
+    def _group_rows(self, kin: Kinematics) -> None:
+        """The rows by kind of axis, for :meth:`_fill` (a few array operations per kind, not
+        two calls per row): elbows (row, side); waist angles (rows, their constant Jacobian
+        rows); vehicle coordinates (rows, their index in the vehicle pose)."""
+        self._elbow_rows = [(k, axis.side) for k, axis in self._rows if axis.is_elbow]
+        lumbar = [(k, axis) for k, axis in self._rows if axis.is_lumbar]
+        self._lumbar_at = np.array([k for k, _ in lumbar], dtype=np.intp)
+        self._lumbar_matrix = np.array(
+            [kin.lumbar_jacobian(axis.lumbar) for _, axis in lumbar]
+        ).reshape(len(lumbar), kin.nv)
+        self._lumbar_value = np.zeros(len(lumbar))
+        vehicle = [(k, axis.vehicle_index) for k, axis in self._rows if axis.is_vehicle]
+        self._vehicle_at = np.array([k for k, _ in vehicle], dtype=np.intp)
+        self._vehicle_of = np.array([i for _, i in vehicle], dtype=np.intp)
+
+    def _fill(self, kin: Kinematics, C: np.ndarray, value: np.ndarray) -> None:
+        """Each row's Jacobian into ``C`` and its axis's value [rad, m] into ``value`` at
+        ``kin``'s last update (what :func:`~controller.model.redundant_axes.axis_jacobian` and
+        :func:`~controller.model.redundant_axes.axis_value` give)."""
+        for k, side in self._elbow_rows:
+            C[k] = kin.elbow_jacobian(side)
+            value[k] = kin.elbow_angle(side)
+        if len(self._lumbar_at):
+            C[self._lumbar_at] = self._lumbar_matrix
+            np.dot(self._lumbar_matrix, kin.q, out=self._lumbar_value)
+            value[self._lumbar_at] = self._lumbar_value
+        if len(self._vehicle_at):
+            C[self._vehicle_at] = kin.vehicle_jacobian()[self._vehicle_of]
+            value[self._vehicle_at] = kin.vehicle_pose()[self._vehicle_of]
 
     def compute_qp_inequalities(self, cycle: CycleState, rows: RowBlock) -> int:
         kin, lb, ub, dt = cycle.kin, cycle.lb, cycle.ub, self.dt
@@ -133,12 +165,9 @@ class AxisLimit:
         n = self.max_rows
         if not n:
             return 0
-        for k, axis in self._rows:
-            C[k] = axis_jacobian(kin, axis)
+        self._fill(kin, C, self._value)
         if self._compiled:
             value, kind = self._value, self._kind
-            for k, axis in self._rows:
-                value[k] = axis_value(kin, axis)
             for k, side in self._held_elbows:  # nearly stretched: no elbow angle to hold
                 stretched = kin.elbow_offset(side) < HOLD_MIN_ELBOW_OFFSET
                 kind[k] = axes_kernel.FREE if stretched else axes_kernel.HELD
