@@ -158,6 +158,31 @@ def test_compiled_distances_need_no_pinocchio_data() -> None:
 
 
 @pytest.mark.parametrize("robot_id", ROBOTS)
+def test_distances_on_the_kinematics_placements_equal_their_own(robot_id: str) -> None:
+    """update(..., chain=kin.placed_chain()) reads the kinematics' joint placements: the
+    same distances, witnesses and rows to the last bit; a chain of another model is refused."""
+    k = kinematics(robot_id)
+    dist = distances(robot_id)
+    chain = k.placed_chain()
+    if not dist.compiled or chain is None:
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
+    data = k.data if dist.needs_data else None
+    for q in random_configurations(k.model, 5, seed=21):
+        k.update(q)
+        dist.update(data and k.data, k.q)
+        own = dist.distances.copy(), dist.witnesses.copy(), dist.jacobian()
+        dist.update(data and k.data, k.q, k.placed_chain())
+        np.testing.assert_array_equal(dist.distances, own[0])
+        np.testing.assert_array_equal(dist.witnesses, own[1])
+        np.testing.assert_array_equal(dist.jacobian(), own[2])
+    other = next(r for r in ROBOTS if r != robot_id)
+    stranger = kinematics(other).placed_chain()
+    assert stranger is not None
+    with pytest.raises(ValueError, match="not of this model"):
+        dist.update(data and k.data, k.q, stranger)
+
+
+@pytest.mark.parametrize("robot_id", ROBOTS)
 def test_every_checked_pair_has_rows(robot_id: str) -> None:
     dist = distances(robot_id)
     checked = load_collision_pairs(collision_path(load_robot(robot_id))).checked

@@ -297,11 +297,11 @@ def test_collision_distances_are_updated_once_per_cycle_while_the_ik_solves():
     seen: list[np.ndarray] = []
     update = dist.update
 
-    def counted(data, q):
+    def counted(data, q, chain=None):
         np.testing.assert_allclose(core.kin.q, core.q)  # the kinematics are this cycle's
         np.testing.assert_array_equal(q, core.kin.q)
         seen.append(core.kin.q.copy())
-        update(data, q)
+        update(data, q, chain)
 
     dist.update = counted  # type: ignore[method-assign]
     for _ in range(10):
@@ -363,6 +363,48 @@ def test_a_control_cycle_runs_no_pinocchio_pass_with_the_compiled_kernels(
         core.cycle()
     assert core.motion is not None and core.ik.rows.limit.max_rows >= 1
     assert not calls
+
+
+def test_a_control_cycle_places_the_joints_once(monkeypatch: pytest.MonkeyPatch):
+    """The collision distances read the kinematics' joint placements: one pass over the
+    joints per cycle (issue 14: every per-cycle kinematic quantity computed once), and the
+    same distances as placing them on their own."""
+    from controller.model import collision_kernel, jit
+    from controller.model.joint_chain import JointChain
+    from controller.model.redundant_axes import elbow_axis
+    from controller.motion.motions import CPHoldMotion
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
+    core = make_core("smartpal5", "mujoco")
+    assert core.collision is not None
+    distances = core.collision.distances
+    passes: list[str] = []
+    forward, own = JointChain.forward, collision_kernel.update
+
+    def counted_forward(chain: JointChain, q: np.ndarray) -> None:
+        passes.append("kinematics")
+        forward(chain, q)
+
+    def counted_own(*args: object) -> None:
+        passes.append("collision")
+        own(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(JointChain, "forward", counted_forward)
+    monkeypatch.setattr(collision_kernel, "update", counted_own)
+    side = RightLeft.RIGHT
+    speed = np.array([0.3])
+    goal = {elbow_axis(side): core.kin.elbow_angle(side) + 0.1}
+    core.start(CPHoldMotion(core.kin, DT, (side,), goal, speed, 2 * speed))
+    for _ in range(20):
+        passes.clear()
+        core.cycle()
+        assert passes == ["kinematics"]
+        shared = distances.distances.copy(), distances.witnesses.copy()
+        distances.update(None, core.kin.q)  # the joints placed by the distances themselves
+        np.testing.assert_array_equal(shared[0], distances.distances)
+        np.testing.assert_array_equal(shared[1], distances.witnesses)
+    assert core.motion is not None
 
 
 def test_the_control_cycle_never_waits_for_a_compiler():

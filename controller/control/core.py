@@ -383,8 +383,13 @@ class MotionCore:
                     return
             if self.collision is not None and self.ik.solves:
                 distances = self.collision.distances
-                # The compiled kernels place the shapes from q: no Pinocchio pass for them.
-                distances.update(self.kin.data if distances.needs_data else None, self.kin.q)
+                # The compiled kernels place the shapes on the kinematics' joint placements:
+                # no Pinocchio pass for them, no second pass over the joints.
+                distances.update(
+                    self.kin.data if distances.needs_data else None,
+                    self.kin.q,
+                    self.kin.placed_chain(),
+                )
             try:
                 result = self.ik.solve(self.q_cmd, self.v_cmd)
             except Exception as exc:  # a solver or numerical error is a failed solve

@@ -24,6 +24,7 @@ import pinocchio as pin
 from controller.model import collision_kernel, jit
 from controller.model.collision_kernel import CompiledPairs, Unsupported
 from controller.model.collision_shapes import CollisionShape, align_z, collision_shapes
+from controller.model.joint_chain import JointChain
 from controller.model.model_source import ModelSource
 from controller.model.obstacles import Obstacle, check_unique, is_obstacle
 
@@ -184,6 +185,7 @@ class CollisionDistances:
                 self.kernel = None
             else:  # compile (or load from the cache) now, not in a control cycle
                 self.compute(pin.neutral(model))
+                self.kernel.update_on(self.kernel.chain, self.distances, self.witnesses)
                 self.jacobian_into(np.zeros(min(count, 1), dtype=np.int64), np.zeros((1, model.nv)))
 
     @property
@@ -221,8 +223,12 @@ class CollisionDistances:
             pin.forwardKinematics(self.model, self._own_data, q)
         self.update(self._own_data, q)
 
-    def update(self, data: pin.Data | None, q: np.ndarray) -> None:
+    def update(self, data: pin.Data | None, q: np.ndarray, chain: JointChain | None = None) -> None:
         """Distances of every pair at configuration ``q`` [rad, m].
+
+        ``chain``: a joint chain of this model already placed at ``q`` (the kinematics' own,
+        :meth:`~controller.model.kinematics.Kinematics.placed_chain`): with the compiled
+        kernels its placements are read, the joints not placed a second time in the cycle.
 
         ``data`` must be this model's data after ``pin.computeJointJacobians(model, data, q)``
         (what :attr:`controller.model.kinematics.Kinematics.data` gives); without the
@@ -241,7 +247,12 @@ class CollisionDistances:
             pin.computeDistances(self.geometry, self.geometry_data)
             self.distances[:] = [r.min_distance for r in self._results]
             return
-        collision_kernel.update(q, *compiled.model_arrays, self.distances, self.witnesses)
+        if chain is not None and compiled.accepts(chain):
+            compiled.update_on(chain, self.distances, self.witnesses)
+        elif chain is not None:
+            raise ValueError("CollisionDistances.update: the chain is not of this model")
+        else:
+            collision_kernel.update(q, *compiled.model_arrays, self.distances, self.witnesses)
         if len(compiled.other):  # box-box pairs: coal
             pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
             for k in compiled.other.tolist():

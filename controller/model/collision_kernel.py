@@ -77,6 +77,44 @@ def update(
       sides), half-space (normal, offset) in its own frame. ``OTHER`` rows are left as
       they are."""
     forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
+    _measure(joint_world, shape_int, shape_frame, shape_world, size, seg, pairs, d, witness)
+
+
+@jit
+def update_placed(
+    placed_world: np.ndarray,
+    placed_columns: np.ndarray,
+    columns: np.ndarray,
+    shape_int: np.ndarray,
+    shape_frame: np.ndarray,
+    shape_world: np.ndarray,
+    size: np.ndarray,
+    seg: np.ndarray,
+    pairs: np.ndarray,
+    d: np.ndarray,
+    witness: np.ndarray,
+) -> None:
+    """:func:`update` on joints another chain of the same model has placed already
+    (``placed_world``, ``placed_columns``: the kinematics' own, at the same ``q``): the
+    Jacobian columns copied into ``columns`` (what :func:`jacobian_rows` reads), the joints
+    not placed again."""
+    columns[...] = placed_columns
+    _measure(placed_world, shape_int, shape_frame, shape_world, size, seg, pairs, d, witness)
+
+
+@jit
+def _measure(
+    joint_world: np.ndarray,
+    shape_int: np.ndarray,
+    shape_frame: np.ndarray,
+    shape_world: np.ndarray,
+    size: np.ndarray,
+    seg: np.ndarray,
+    pairs: np.ndarray,
+    d: np.ndarray,
+    witness: np.ndarray,
+) -> None:
+    """:func:`update` after the joints' placements: the shapes, then every kernel pair."""
     for g in range(shape_int.shape[0]):
         compose(joint_world[shape_int[g, 0]], shape_frame[g], shape_world[g])
     kinds = shape_int[:, 1]
@@ -541,6 +579,27 @@ class CompiledPairs:
             self.column_kind, self.shape_int, self.shape_frame, self.shape_world, self.size,
             self.segments, self.pairs,
         )  # fmt: skip
+        #: :func:`update_placed`'s arguments after the placed chain's two arrays.
+        self.shape_arrays = self.model_arrays[3:4] + self.model_arrays[5:]
+        #: The chain :func:`update` places (its own).
+        self.chain = chain
+        #: The last other chain :meth:`accepts` checked (the same model's).
+        self._accepted: JointChain | None = None
+
+    def accepts(self, chain: JointChain) -> bool:
+        """Whether ``chain`` is a chain of this model (its joints and columns are ours)."""
+        if chain is self._accepted:
+            return True
+        own = self.chain
+        same = (
+            chain.joint_int.shape == own.joint_int.shape
+            and np.array_equal(chain.joint_int, own.joint_int)
+            and np.array_equal(chain.joint_frame, own.joint_frame)
+            and np.array_equal(chain.column_kind, own.column_kind)
+        )
+        if same:
+            self._accepted = chain
+        return same
 
     @property
     def kinds(self) -> np.ndarray:
@@ -555,6 +614,10 @@ class CompiledPairs:
     def update(self, q: np.ndarray, d: np.ndarray, witness: np.ndarray) -> None:
         """:func:`update` at ``q`` [rad, m] into ``d`` and ``witness``."""
         update(q, *self.model_arrays, d, witness)
+
+    def update_on(self, chain: JointChain, d: np.ndarray, witness: np.ndarray) -> None:
+        """:func:`update_placed` on ``chain``'s placements (a chain :meth:`accepts`)."""
+        update_placed(chain.joint_world, chain.columns, *self.shape_arrays, d, witness)
 
     def rows(
         self, index: np.ndarray, support: np.ndarray, witness: np.ndarray, out: np.ndarray

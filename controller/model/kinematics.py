@@ -351,6 +351,16 @@ class Kinematics:
         local[:3] = placement.rotation
         local[3] = placement.translation
 
+    def placed_chain(self) -> JointChain | None:
+        """The compiled joint chain placed at this update's ``q`` (placing it now if no query
+        has yet), for other users of the same placements in the cycle (the collision
+        distances); None without the compiled kernels. Read it, do not place it: valid until
+        the next :meth:`update`."""
+        if self._chain is None:
+            return None
+        self._place()
+        return self._chain
+
     def _place(self) -> None:
         """The joints' world placements and Jacobian columns at this update's ``q``, once."""
         if not self._placed:
