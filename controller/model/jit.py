@@ -7,20 +7,85 @@ and floats, compiled with :func:`jit` when numba imports. Where it does not, or 
 NumPy/Pinocchio code instead (the same results, slower; tests run both). Compiled code is
 cached on disk (beside the sources, or in ``NUMBA_CACHE_DIR``); callers compile or load it
 when they are built, never in a control cycle.
+
+numba keeps a kernel's cache while the kernel's own source file is unchanged, and compiles
+the kernels it calls from other modules into it: a change in those (a joint chain kernel
+that the collision and elbow kernels inline) would not be seen, and the stale code would
+run. So a kernel's cache here is also keyed by :data:`KERNEL_SOURCES`, a digest of every
+source file of the kernel packages that mentions ``jit``: any change in one of them
+compiles every kernel again at the next start (about 40 s of CPU).
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
 try:  # pragma: no cover - exercised by the import itself
     import numba
+    from numba.core import caching
 except ImportError:  # pragma: no cover - the fallback is tested with IMOTION_JIT=0
     numba = None  # type: ignore[assignment]
 
 F = TypeVar("F", bound=Callable[..., Any])
+
+#: Where the kernels live (every file under them that mentions ``jit`` is in the digest).
+_ROOT = Path(__file__).resolve().parents[2]
+KERNEL_PACKAGES = ("controller/model", "controller/qp", "controller/motion", "hal")
+
+
+def kernel_sources_digest(root: Path = _ROOT) -> bytes:
+    """SHA-256 over the path and contents of every ``.py`` file under
+    :data:`KERNEL_PACKAGES` whose text mentions ``jit`` (~5 ms)."""
+    digest = hashlib.sha256()
+    for package in KERNEL_PACKAGES:
+        for path in sorted((root / package).rglob("*.py")):
+            text = path.read_bytes()
+            if b"jit" in text:
+                digest.update(path.relative_to(root).as_posix().encode())
+                digest.update(text)
+    return digest.digest()
+
+
+#: :func:`kernel_sources_digest` of the sources this process runs.
+KERNEL_SOURCES = kernel_sources_digest()
+
+
+def _stamp_with_kernel_sources(locator: Any, stamp: Any) -> Any:
+    """A cache entry's source stamp, with :data:`KERNEL_SOURCES` for files of ours."""
+    if Path(locator._py_file).resolve().is_relative_to(_ROOT):
+        return (stamp, KERNEL_SOURCES)
+    return stamp
+
+
+if numba is not None:
+
+    class UserProvidedLocator(caching.UserProvidedCacheLocator):
+        """numba's ``NUMBA_CACHE_DIR`` locator, the stamp keyed by the kernel sources."""
+
+        def get_source_stamp(self) -> Any:
+            return _stamp_with_kernel_sources(self, super().get_source_stamp())
+
+    class InTreeLocator(caching.InTreeCacheLocator):
+        """numba's ``__pycache__`` locator, the stamp keyed by the kernel sources."""
+
+        def get_source_stamp(self) -> Any:
+            return _stamp_with_kernel_sources(self, super().get_source_stamp())
+
+    class UserWideLocator(caching.UserWideCacheLocator):
+        """numba's per-user locator, the stamp keyed by the kernel sources."""
+
+        def get_source_stamp(self) -> Any:
+            return _stamp_with_kernel_sources(self, super().get_source_stamp())
+
+    if not numba.config.CACHE_LOCATOR_CLASSES:  # type: ignore[attr-defined]  # (a user's stays)
+        numba.config.CACHE_LOCATOR_CLASSES = ",".join(  # type: ignore[attr-defined]
+            [f"{__name__}.{name}" for name in ("UserProvidedLocator", "InTreeLocator")]
+            + [f"{__name__}.UserWideLocator", "IPythonCacheLocator", "ZipCacheLocator"]
+        )
 
 
 def available() -> bool:
