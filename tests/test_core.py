@@ -430,6 +430,7 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     kernels = (
         mujoco_backend._servo_references,
         collision_kernel.update,
+        collision_kernel.update_placed,
         collision_kernel.jacobian_rows,
         damper_kernel.collision_rows,
         damper_kernel.binding,

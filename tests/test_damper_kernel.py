@@ -25,6 +25,7 @@ def pair(monkeypatch: pytest.MonkeyPatch, robot_id: str) -> tuple[CollisionAvoid
     monkeypatch.delenv("IMOTION_JIT")
     assert compiled is not None and numpy_path is not None
     assert compiled.distances.compiled and not numpy_path.distances.compiled
+    compiled.screen = False  # every pair computed (the screen: test_collision_screen.py)
     return compiled, numpy_path
 
 

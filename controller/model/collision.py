@@ -185,7 +185,9 @@ class CollisionDistances:
                 self.kernel = None
             else:  # compile (or load from the cache) now, not in a control cycle
                 self.compute(pin.neutral(model))
-                self.kernel.update_on(self.kernel.chain, self.distances, self.witnesses)
+                self.kernel.update_on(
+                    pin.neutral(model), self.kernel.chain, self.distances, self.witnesses
+                )
                 self.jacobian_into(np.zeros(min(count, 1), dtype=np.int64), np.zeros((1, model.nv)))
 
     @property
@@ -248,11 +250,13 @@ class CollisionDistances:
             self.distances[:] = [r.min_distance for r in self._results]
             return
         if chain is not None and compiled.accepts(chain):
-            compiled.update_on(chain, self.distances, self.witnesses)
+            compiled.update_on(q, chain, self.distances, self.witnesses)
         elif chain is not None:
             raise ValueError("CollisionDistances.update: the chain is not of this model")
         else:
-            collision_kernel.update(q, *compiled.model_arrays, self.distances, self.witnesses)
+            collision_kernel.update(
+                q, *compiled.model_arrays, self.distances, self.witnesses, *compiled.screen.arrays
+            )
         if len(compiled.other):  # box-box pairs: coal
             pin.updateGeometryPlacements(self.model, data, self.geometry, self.geometry_data)
             for k in compiled.other.tolist():

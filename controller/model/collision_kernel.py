@@ -34,6 +34,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from controller.model.collision_screen import PairScreen, publish, screen, shape_extent
 from controller.model.jit import jit
 from controller.model.joint_chain import PRISMATIC, JointChain, Unsupported, compose, forward
 
@@ -62,6 +63,9 @@ def update(
     pairs: np.ndarray,
     d: np.ndarray,
     witness: np.ndarray,
+    screen_state: np.ndarray,
+    screen_index: np.ndarray,
+    screen_flags: np.ndarray,
 ) -> None:
     """Everything of configuration ``q`` [rad, m] (see :class:`CompiledPairs` for the arrays):
 
@@ -75,13 +79,22 @@ def update(
       ``witness``: normal from shape 2 to shape 1, witness points on shape 1 and 2 [m].
       ``size`` per shape: capsule (radius, half length), sphere (radius, 0), box (half
       sides), half-space (normal, offset) in its own frame. ``OTHER`` rows are left as
-      they are."""
+      they are;
+    * which pairs it computes: the rest of the arguments are a
+      :class:`~controller.model.collision_screen.PairScreen`'s (every pair while it is off).
+    """
     forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
-    _measure(joint_world, shape_int, shape_frame, shape_world, size, seg, pairs, d, witness)
+    screen(q, d, screen_state, screen_index, screen_flags)
+    computed = screen_flags[d.shape[0] :]
+    _measure(
+        joint_world, shape_int, shape_frame, shape_world, size, seg, pairs, d, witness, computed
+    )
+    publish(q, d, screen_state, screen_index, screen_flags)
 
 
 @jit
 def update_placed(
+    q: np.ndarray,
     placed_world: np.ndarray,
     placed_columns: np.ndarray,
     columns: np.ndarray,
@@ -93,13 +106,21 @@ def update_placed(
     pairs: np.ndarray,
     d: np.ndarray,
     witness: np.ndarray,
+    screen_state: np.ndarray,
+    screen_index: np.ndarray,
+    screen_flags: np.ndarray,
 ) -> None:
     """:func:`update` on joints another chain of the same model has placed already
     (``placed_world``, ``placed_columns``: the kinematics' own, at the same ``q``): the
     Jacobian columns copied into ``columns`` (what :func:`jacobian_rows` reads), the joints
     not placed again."""
     columns[...] = placed_columns
-    _measure(placed_world, shape_int, shape_frame, shape_world, size, seg, pairs, d, witness)
+    screen(q, d, screen_state, screen_index, screen_flags)
+    computed = screen_flags[d.shape[0] :]
+    _measure(
+        placed_world, shape_int, shape_frame, shape_world, size, seg, pairs, d, witness, computed
+    )
+    publish(q, d, screen_state, screen_index, screen_flags)
 
 
 @jit
@@ -113,20 +134,36 @@ def _measure(
     pairs: np.ndarray,
     d: np.ndarray,
     witness: np.ndarray,
+    computed: np.ndarray,
 ) -> None:
-    """:func:`update` after the joints' placements: the shapes, then every kernel pair."""
-    for g in range(shape_int.shape[0]):
-        compose(joint_world[shape_int[g, 0]], shape_frame[g], shape_world[g])
+    """:func:`update` after the joints' placements: every ``KERNEL`` pair ``computed``
+    marks, on the world placements of its shapes (``shape_world``, and ``seg`` for capsules;
+    every shape's when every pair is computed, else only those of the computed pairs)."""
     kinds = shape_int[:, 1]
     world_rot = shape_world[:, :3]
     world_pos = shape_world[:, 3]
-    _segments(kinds, world_rot, world_pos, size, seg)
+    every = True
+    for k in range(pairs.shape[0]):
+        if not computed[k]:
+            every = False
+            break
+    placed = np.zeros(shape_int.shape[0], dtype=np.bool_)
+    if every:
+        for g in range(shape_int.shape[0]):
+            _place_shape(g, joint_world, shape_int, shape_frame, shape_world, size, seg)
+            placed[g] = True
     n, p1, p2 = witness[:, 0], witness[:, 1], witness[:, 2]
     scratch = np.empty(14)
     for k in range(pairs.shape[0]):
-        if pairs[k, 2] != KERNEL:
+        if pairs[k, 2] != KERNEL or not computed[k]:
             continue
         g1, g2 = pairs[k, 0], pairs[k, 1]
+        if not placed[g1]:
+            _place_shape(g1, joint_world, shape_int, shape_frame, shape_world, size, seg)
+            placed[g1] = True
+        if not placed[g2]:
+            _place_shape(g2, joint_world, shape_int, shape_frame, shape_world, size, seg)
+            placed[g2] = True
         k1, k2 = kinds[g1], kinds[g2]
         if k1 == CAPSULE and k2 == CAPSULE:
             _capsules(k, g1, g2, seg, d, n, p1, p2)
@@ -140,6 +177,30 @@ def _measure(
             _capsule_box(k, g2, g1, True, world_rot, world_pos, size, seg, d, n, p1, p2, scratch)
 
 
+@jit
+def _place_shape(
+    g: int,
+    joint_world: np.ndarray,
+    shape_int: np.ndarray,
+    shape_frame: np.ndarray,
+    shape_world: np.ndarray,
+    size: np.ndarray,
+    seg: np.ndarray,
+) -> None:
+    """Shape ``g``'s world placement on its joint's; a capsule's (or sphere's) segment end
+    points along its z and its radius [m] too."""
+    compose(joint_world[shape_int[g, 0]], shape_frame[g], shape_world[g])
+    if shape_int[g, 1] != CAPSULE:
+        return
+    h = size[g, 1]
+    rot = shape_world[g]
+    ax, ay, az = rot[0, 2] * h, rot[1, 2] * h, rot[2, 2] * h
+    cx, cy, cz = rot[3, 0], rot[3, 1], rot[3, 2]
+    seg[g, 0], seg[g, 1], seg[g, 2] = cx - ax, cy - ay, cz - az
+    seg[g, 3], seg[g, 4], seg[g, 5] = cx + ax, cy + ay, cz + az
+    seg[g, 6] = size[g, 0]
+
+
 # ------------------------------------------------------------------------------ distances
 @jit
 def _clamp01(x: float) -> float:
@@ -148,26 +209,8 @@ def _clamp01(x: float) -> float:
 
 @jit
 def _segment_ends(g: int, seg: np.ndarray) -> Any:
-    """A capsule's (or sphere's) segment end points and radius [m] (see :func:`_segments`)."""
+    """A capsule's (or sphere's) segment end points and radius [m] (see :func:`_place_shape`)."""
     return seg[g, 0], seg[g, 1], seg[g, 2], seg[g, 3], seg[g, 4], seg[g, 5], seg[g, 6]
-
-
-@jit
-def _segments(
-    kinds: np.ndarray, world_rot: np.ndarray, world_pos: np.ndarray, size: np.ndarray,
-    seg: np.ndarray,
-) -> None:  # fmt: skip
-    """Per capsule (or sphere) its segment's end points along its z and its radius [m], once
-    per update (pairs share shapes)."""
-    for g in range(kinds.shape[0]):
-        if kinds[g] != CAPSULE:
-            continue
-        h = size[g, 1]
-        ax, ay, az = world_rot[g, 0, 2] * h, world_rot[g, 1, 2] * h, world_rot[g, 2, 2] * h
-        cx, cy, cz = world_pos[g, 0], world_pos[g, 1], world_pos[g, 2]
-        seg[g, 0], seg[g, 1], seg[g, 2] = cx - ax, cy - ay, cz - az
-        seg[g, 3], seg[g, 4], seg[g, 5] = cx + ax, cy + ay, cz + az
-        seg[g, 6] = size[g, 0]
 
 
 @jit
@@ -558,7 +601,7 @@ class CompiledPairs:
             self.shape_frame[g, :3] = obj.placement.rotation
             self.shape_frame[g, 3] = obj.placement.translation
         self.size = np.zeros((ng, 4))
-        self.refresh_sizes(geometry)
+        self._read_sizes(geometry)
         shapes = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.pairs = np.zeros((len(shapes), 3), dtype=np.int64)
         self.pairs[:, :2] = shapes
@@ -571,7 +614,7 @@ class CompiledPairs:
         self.joint_world, self.columns = chain.joint_world, chain.columns
         self.column_kind = chain.column_kind
         self.shape_world = np.zeros((ng, 4, 3))
-        #: Per capsule or sphere: segment end points and radius [m] (see :func:`_segments`).
+        #: Per capsule or sphere: segment end points and radius [m] (see :func:`_place_shape`).
         self.segments = np.zeros((ng, 7))
         #: :func:`update`'s arguments after ``q`` (written in place, never replaced).
         self.model_arrays = (
@@ -581,6 +624,11 @@ class CompiledPairs:
         )  # fmt: skip
         #: :func:`update_placed`'s arguments after the placed chain's two arrays.
         self.shape_arrays = self.model_arrays[3:4] + self.model_arrays[5:]
+        #: Which pairs an update computes (off until :meth:`PairScreen.set`); box-box
+        #: pairs, which coal computes, every time.
+        always = np.zeros(len(shapes), dtype=np.bool_)
+        always[self.other] = True
+        self.screen = PairScreen(model, self.shape_int[:, 0], self._extents(), shapes, always)
         #: The chain :func:`update` places (its own).
         self.chain = chain
         #: The last other chain :meth:`accepts` checked (the same model's).
@@ -607,17 +655,39 @@ class CompiledPairs:
         return self.shape_int[:, 1]
 
     def refresh_sizes(self, geometry: pin.GeometryModel) -> None:
-        """Read the shapes' sizes again (after a padding changed them)."""
+        """Read the shapes' sizes again (after a padding changed them); the screen's levers
+        with them (every pair computed at the next update)."""
+        self._read_sizes(geometry)
+        self.screen.levers(self._extents())
+
+    def _read_sizes(self, geometry: pin.GeometryModel) -> None:
         for g, obj in enumerate(geometry.geometryObjects):
             self.shape_int[g, 1], self.size[g] = _shape_row(obj.geometry)
 
+    def _extents(self) -> np.ndarray:
+        """Each shape's :func:`~controller.model.collision_screen.shape_extent` [m]."""
+        return np.array(
+            [
+                shape_extent(int(kind), frame, size)
+                for kind, frame, size in zip(
+                    self.shape_int[:, 1], self.shape_frame, self.size, strict=True
+                )
+            ]
+        )
+
     def update(self, q: np.ndarray, d: np.ndarray, witness: np.ndarray) -> None:
         """:func:`update` at ``q`` [rad, m] into ``d`` and ``witness``."""
-        update(q, *self.model_arrays, d, witness)
+        update(q, *self.model_arrays, d, witness, *self.screen.arrays)
 
-    def update_on(self, chain: JointChain, d: np.ndarray, witness: np.ndarray) -> None:
-        """:func:`update_placed` on ``chain``'s placements (a chain :meth:`accepts`)."""
-        update_placed(chain.joint_world, chain.columns, *self.shape_arrays, d, witness)
+    def update_on(
+        self, q: np.ndarray, chain: JointChain, d: np.ndarray, witness: np.ndarray
+    ) -> None:
+        """:func:`update_placed` at ``q`` [rad, m] on ``chain``'s placements (a chain
+        :meth:`accepts`, placed at ``q``)."""
+        update_placed(
+            q, chain.joint_world, chain.columns, *self.shape_arrays, d, witness,
+            *self.screen.arrays,
+        )  # fmt: skip
 
     def rows(
         self, index: np.ndarray, support: np.ndarray, witness: np.ndarray, out: np.ndarray

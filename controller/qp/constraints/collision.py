@@ -87,6 +87,10 @@ class CollisionAvoidance:
     """
 
     name = "collision avoidance"
+    #: With compiled distances, whether they compute only the pairs that may come within
+    #: reach of the rows (:mod:`controller.model.collision_screen`): set when the rows'
+    #: settings are next read.
+    screen = True
     levels = Level.BOTH
     relaxation = Relaxation.NO_FURTHER
     joints = None
@@ -280,15 +284,24 @@ class CollisionAvoidance:
         lb = cycle.v_prev if cycle.lb is None else cycle.lb  # v_prev: unread
         ub = cycle.v_prev if cycle.ub is None else cycle.ub
         # the settings of now (tests and tools change them), written when they change
-        values = (self.influence, self.lookahead, self.dt, cap, self.security, self.damping)
+        values = (
+            self.influence, self.lookahead, self.dt, cap, self.security, self.damping,
+            self.screen,
+        )  # fmt: skip
         if values != self._settings_of:
             self._settings_of = values
+            # the distances compute only the pairs that may come within reach of the rows
+            if self.screen:
+                kernel.screen.set(self.influence, self.lookahead / self.dt)
+            else:
+                kernel.screen.off()
             self._settings[:7] = (
                 self.influence, self.lookahead / self.dt, cap, self.security, self.span,
                 self.damping, self.dt,
             )  # fmt: skip
             self._own = (
-                dist.distances, self._state, self._candidates, self._settings, dist.support,
+                dist.distances, self._state, kernel.screen.cap, self._candidates,
+                self._settings, dist.support,
                 dist.witnesses, kernel.columns, kernel.column_kind, self._a_max, self._low,
             )  # fmt: skip
         k, m = _rows_kernel(

@@ -28,15 +28,19 @@ def select_pairs(
     horizon: float,
     max_rows: int,
     near: np.ndarray,
+    closing_cap: np.ndarray,
 ) -> int:
     """Pairs in range: closer than ``influence`` [m] or closing fast enough to get there
     within the look-ahead (``horizon`` = look-ahead / dt, the closing per cycle from
-    ``d_last``; NaN: not closing); more than ``max_rows``: the most urgent. Writes their
-    indices, ascending, into ``near`` and returns how many; ``d_last`` := ``d``. ``key``,
-    ``candidates``: scratch, one value per pair."""
+    ``d_last``, at most ``closing_cap`` [m]; NaN: not closing); more than ``max_rows``: the
+    most urgent. Writes their indices, ascending, into ``near`` and returns how many;
+    ``d_last`` := ``d``. ``key``, ``candidates``: scratch, one value per pair.
+    ``closing_cap``: a bound on each pair's closing this cycle where the change from
+    ``d_last`` overstates it (a pair back from the distances' screen, whose last distance
+    was an upper bound: :mod:`controller.model.collision_screen`), else inf."""
     count = 0
     for p in range(d.shape[0]):
-        closing = d_last[p] - d[p]
+        closing = min(d_last[p] - d[p], closing_cap[p])
         if not closing > 0.0:  # NaN or opening
             closing = 0.0
         d_last[p] = d[p]
@@ -60,6 +64,7 @@ def select_pairs(
 def collision_rows(
     d: np.ndarray,
     state: np.ndarray,
+    closing_cap: np.ndarray,
     candidates: np.ndarray,
     settings: np.ndarray,
     support: np.ndarray,
@@ -84,8 +89,9 @@ def collision_rows(
     ``row_pairs`` and ``low`` (the least ``J_d v`` the box allows); returns ``(k, m)``, ``m``
     the rows reported. ``state`` rows: the distances of the last call, scratch, the
     approach speed ``allowed`` per pair [m/s] (``old_pairs``, last cycle's, back to inf
-    unless still in range). ``settings``: influence, look-ahead / dt, max rows, security,
-    span, damping, dt, braking share, interior, brake margin, min reach, implied tolerance,
+    unless still in range); ``closing_cap``: see :func:`select_pairs`. ``settings``:
+    influence, look-ahead / dt, max rows, security, span, damping, dt, braking share,
+    interior, brake margin, min reach, implied tolerance,
     the rows' infinity (:data:`~controller.qp.constraints.protocol.INF`). ``witness``,
     ``columns``: :attr:`CollisionDistances.witnesses`, :attr:`CompiledPairs.columns`. The
     arguments up to ``low`` are the constraint's own (the same arrays every cycle).
@@ -95,7 +101,9 @@ def collision_rows(
     security, span, damping, dt = settings[3], settings[4], settings[5], settings[6]
     share, interior, margin, min_reach = settings[7], settings[8], settings[9], settings[10]
     implied, inf = settings[11], settings[12]
-    k = select_pairs(d, d_last, state[1], candidates, influence, horizon, max_rows, near)
+    k = select_pairs(
+        d, d_last, state[1], candidates, influence, horizon, max_rows, near, closing_cap
+    )
     nv = C.shape[1]
     jacobian_rows(near[:k], support, witness, columns, column_kind, C)
     now = np.empty(k)
