@@ -14,9 +14,22 @@ import numpy as np
 
 from config import robot_ids
 from controller.model.kinematics import Kinematics
+from controller.model.obstacles import Obstacle
 from controller.model.robot import Robot, load_robot
 
 ROBOT_IDS = robot_ids()
+#: The robots with collision shapes.
+SHAPED_ROBOTS = ["smartpal5", "pa10", "seednoid"]
+#: One static obstacle of each kind near the arms (table and mast tilted: no axis-aligned
+#: luck; the table and the robot's boxes: coal's pairs).
+OBSTACLES = [
+    Obstacle(name="table", type="box", pos=(0.6, 0, 0.7), rpy=(0.1, 0.2, 0.3),
+             half_extents=(0.3, 0.4, 0.02)),
+    Obstacle(name="wall", type="plane", pos=(1.0, 0, 0), rpy=(0, -1.5708, 0)),
+    Obstacle(name="mast", type="capsule", pos=(0.4, 0.5, 1.0), rpy=(0.3, 0, 0), radius=0.05,
+             length=0.8),
+    Obstacle(name="ball", type="sphere", pos=(0.5, -0.4, 1.0), radius=0.1),
+]  # fmt: skip
 #: Range [m] / [rad] drawn for unbounded vehicle axes in random configurations.
 VEHICLE_SPAN = 5.0
 

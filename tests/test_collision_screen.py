@@ -12,21 +12,13 @@ from controller.model.collision import CollisionDistances
 from controller.model.collision_pairs import robot_distances
 from controller.model.collision_screen import MAX_STALE, PairScreen, shape_extent
 from controller.model.kinematics import Kinematics
-from controller.model.obstacles import Obstacle
 from controller.qp.constraints.collision import CollisionAvoidance
 from controller.qp.constraints.protocol import CycleState, RowBlock
-from tests.support import kinematics
+from tests.support import OBSTACLES, SHAPED_ROBOTS, kinematics
 
 pytestmark = pytest.mark.skipif(not jit.available(), reason="numba not installed")
 
-ROBOTS = ["smartpal5", "pa10", "seednoid"]  # the robots with collision shapes
-#: One obstacle of each kind around the robot (the table and the robot's boxes: coal's).
-OBSTACLES = [
-    Obstacle(name="table", type="box", pos=(0.6, 0, 0.7), rpy=(0.1, 0.2, 0.3),
-             half_extents=(0.3, 0.4, 0.02)),
-    Obstacle(name="wall", type="plane", pos=(1.0, 0, 0), rpy=(0, -1.5708, 0)),
-    Obstacle(name="ball", type="sphere", pos=(0.5, -0.4, 1.0), radius=0.1),
-]  # fmt: skip
+ROBOTS = SHAPED_ROBOTS
 WITHIN, HORIZON = 0.05, 250.0
 
 

@@ -84,12 +84,10 @@ def update(
       :class:`~controller.model.collision_screen.PairScreen`'s (every pair while it is off).
     """
     forward(q, joint_int, joint_frame, joint_world, columns, column_kind)
-    screen(q, d, screen_state, screen_index, screen_flags)
-    computed = screen_flags[d.shape[0] :]
-    _measure(
-        joint_world, shape_int, shape_frame, shape_world, size, seg, pairs, d, witness, computed
-    )
-    publish(q, d, screen_state, screen_index, screen_flags)
+    update_placed(
+        q, joint_world, columns, columns, shape_int, shape_frame, shape_world, size, seg,
+        pairs, d, witness, screen_state, screen_index, screen_flags,
+    )  # fmt: skip
 
 
 @jit
@@ -113,7 +111,7 @@ def update_placed(
     """:func:`update` on joints another chain of the same model has placed already
     (``placed_world``, ``placed_columns``: the kinematics' own, at the same ``q``): the
     Jacobian columns copied into ``columns`` (what :func:`jacobian_rows` reads), the joints
-    not placed again."""
+    not placed again (:func:`update`'s own after it placed them: the columns its own)."""
     columns[...] = placed_columns
     screen(q, d, screen_state, screen_index, screen_flags)
     computed = screen_flags[d.shape[0] :]
