@@ -6,10 +6,11 @@ Usage: python tools/bench_cycle_cpu.py [--robot smartpal5] [--number 3000] [--re
 Runs the motion core on MuJoCo at 1 kHz into a CP-hold motion of the benchmark mix (the
 elbow swing of tools/loop_mix.py, or its first segment), then times each piece with
 ``timeit`` on ``time.thread_time`` (CPU time of this thread: robust on a shared machine,
-unlike the wall-clock figures of tools/bench_loop.py): hardware read, hardware write (one
-cycle of simulation), ``mj_step`` alone, the snapshot publish, the kinematics update, and the
-core's own glue (a whole ``MotionCore.cycle`` with read, write, kinematics, collision
-distances, motion and IK replaced by stubs). Prints the minimum and median over the repeats
+unlike the wall-clock figures of tools/bench_loop.py): hardware read, hardware write with
+the physics step it leaves (``write`` + ``advance``: one cycle of simulation), ``mj_step``
+alone, the snapshot publish, the kinematics update, and the core's own glue (a whole
+``MotionCore.cycle`` with read, write, kinematics, collision distances, motion and IK
+replaced by stubs). Prints the minimum and median over the repeats
 [µs per call]; the last line is a JSON object.
 """
 
@@ -82,7 +83,7 @@ def main() -> int:
     q = core.q.copy()
     pieces = {
         "read": measure(hw.read, n, r),
-        "write": measure(lambda: hw.write(command), n, r),
+        "write": measure(lambda: (hw.write(command), hw.advance()), n, r),
         "mj_step": measure(lambda: mujoco.mj_step(hw.model, hw.data), n, r),
         "publish": measure(lambda: publisher.publish(0, False, 0, 0), n, r),
         "kinematics": measure(lambda: core.kin.update(q), n, r),
