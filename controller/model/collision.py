@@ -165,7 +165,8 @@ class CollisionDistances:
         #: through this list is several times faster than through ``distanceResults``).
         self._results = list(self.geometry_data.distanceResults)
         count = len(self.pair_links)
-        #: Signed distance of each pair [m] at the last update (negative: overlap).
+        #: Signed distance of each pair [m] at the last update (negative: overlap); with the
+        #: screen on (``kernel.screen``), an upper bound for the pairs beyond reach.
         self.distances = np.zeros(count)
         #: With the compiled kernels: per pair the unit normal from shape 2 to shape 1 and the
         #: witness points on shape 1 and shape 2 (world [m]) at the last update (views of
@@ -347,5 +348,7 @@ class CollisionDistances:
             self.kernel.refresh_sizes(self.geometry)
 
     def closest(self) -> int:
-        """Index of the pair with the smallest distance (-1 when no pair is checked)."""
+        """Index of the pair with the smallest distance (-1 when no pair is checked); with
+        the screen on (:mod:`controller.model.collision_screen`), of the published ones: the
+        pairs within reach exact, the others upper bounds."""
         return int(np.argmin(self.distances)) if len(self) else -1
