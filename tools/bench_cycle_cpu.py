@@ -81,9 +81,14 @@ def main() -> int:
     assert isinstance(hw, MujocoBackend)
     command = JointCommand(core.hw_command.copy(), core._hw_vel.copy())
     q = core.q.copy()
+
+    def write() -> None:
+        hw.write(command)
+        hw.advance()
+
     pieces = {
         "read": measure(hw.read, n, r),
-        "write": measure(lambda: (hw.write(command), hw.advance()), n, r),
+        "write": measure(write, n, r),
         "mj_step": measure(lambda: mujoco.mj_step(hw.model, hw.data), n, r),
         "publish": measure(lambda: publisher.publish(0, False, 0, 0), n, r),
         "kinematics": measure(lambda: core.kin.update(q), n, r),
