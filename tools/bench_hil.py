@@ -2,7 +2,8 @@
 """HIL benchmark: motion core + CAN backend + drive emulator at a fixed rate.
 
 Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,800,625,500]
-                                 [--seconds 60] [--emulator process|thread] [--drives PATH]
+                                 [--seconds 60] [--floor-seconds S]
+                                 [--emulator process|thread] [--drives PATH]
                                  [--planner process|thread] [--gc slack|automatic]
                                  [--planner-priority 50] [--no-realtime]
 
@@ -40,6 +41,15 @@ every run (``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs 
 thread under SCHED_FIFO (below the loop's 80 and the emulator's 70): a planner that the host
 deschedules while it holds the GIL stalls the real-time loop for as long. The planning
 thread sleeps until the loop finds the robot idle (no polling).
+
+Last, the machine's floor (:mod:`machine_floor`; ``--floor-seconds``, default as long as a
+run, 0: none), after the runs, at each run's rate: a bare SCHED_FIFO 80 thread sleeping to
+the same deadlines and, with the emulator process under SCHED_FIFO, a second bare one at its
+priority in another process at the same time (the real setup has two real-time threads on
+this 2-core machine). Each counts its wakes later than the period minus the run's compute
+p50 (a wake that late makes a step of median cost overrun), printed beside the run's
+overruns and in the JSON line (``floor_late``, ``floor_late_emulator``, ``machine_floor``):
+a run's overruns near the floor's count are the host's, not the loop's.
 """
 
 from __future__ import annotations
@@ -58,6 +68,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
+import machine_floor  # noqa: E402
 import numpy as np  # noqa: E402
 from loop_mix import WorkerLineCheck, segments  # noqa: E402
 from overrun_trace import CycleTrace, print_overruns  # noqa: E402
@@ -101,10 +112,17 @@ def main() -> int:
                              "(default), or CPython's automatic collection")  # fmt: skip
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
+    parser.add_argument("--floor-seconds", type=float, default=None,
+                        help="after the runs, the machine's floor at each run's rate "
+                             "(tools/machine_floor.py) this long [s] (default: --seconds; "
+                             "0: skip)")  # fmt: skip
     args = parser.parse_args()
     sys.setswitchinterval(args.switch_interval)
+    floor_seconds = args.seconds if args.floor_seconds is None else args.floor_seconds
     if not args.rates:
         result = run(args, args.rate)
+        if floor_seconds > 0:
+            add_floor(result, floor_seconds)
         print(json.dumps(result))
         return 0 if not result["alarms"] else 1
     rates = [float(rate) for rate in args.rates.split(",")]
@@ -114,9 +132,14 @@ def main() -> int:
         except ValueError as exc:
             parser.error(f"--rates: {rate:g} Hz: {exc}")
     runs = [run(args, rate) for rate in rates]
-    print("summary (rate, overruns, alarms, compute p99, wake p99, master CPU p50, load avg):")
+    if floor_seconds > 0:
+        for r in runs:
+            add_floor(r, floor_seconds)
+    print("summary (rate, overruns, machine floor's late wakes (FIFO 80 / 70), alarms, "
+          "compute p99, wake p99, master CPU p50, load avg):")  # fmt: skip
     for r in runs:
         print(f"  {r['rate_hz']:7g} Hz  overruns {r['overruns']:6d} / {r['cycles']}  "
+              f"floor {_count(r.get('floor_late'))} / {_count(r.get('floor_late_emulator'))}  "
               f"alarms {r['alarms']}  compute p99 {r['compute_us_p99']:7.1f} us  "
               f"wake p99 {r['wake_latency_us_p99']:7.1f} us  "
               f"master {r['master_cpu_us_p50']:6.1f} us  "
@@ -419,6 +442,50 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         **stats,
     }
     return result
+
+
+def add_floor(result: dict[str, Any], seconds: float) -> None:
+    """The machine's floor for the run ``result`` (module doc), measured now for
+    ``seconds`` [s] at its rate: a bare SCHED_FIFO 80 thread, and with an emulator process
+    under SCHED_FIFO a second one at its priority in another process, at the same time.
+    Each counts its wakes later than the period minus the run's compute p50 (a wake that
+    late makes a step of median cost overrun). Adds ``machine_floor``, ``floor_late`` and
+    ``floor_late_emulator`` (None without a second thread) to ``result`` and prints them
+    beside the run's overruns."""
+    rate = float(result["rate_hz"])
+    compute = float(result["compute_us_p50"])
+    threshold = 1e6 / rate - (compute if math.isfinite(compute) else 0.0)
+    priorities = [machine_floor.LOOP_PRIORITY]
+    second = result["emulator"] == "process" and bool(result["emulator_priority"])
+    if second:
+        priorities.append(int(result["emulator_priority"]))
+    floors = machine_floor.measure_together(rate, seconds, priorities, threshold)
+    result["machine_floor"] = {
+        "seconds": seconds,
+        "threshold_us": round(threshold, 1),
+        "loop": floors[0],
+        "emulator": floors[1] if second else None,
+    }
+    result["floor_late"] = floors[0].get("late_past_threshold")
+    result["floor_late_emulator"] = floors[1].get("late_past_threshold") if second else None
+    text = (
+        f"{_count(result['floor_late'])} wakes later than {threshold:.0f} us (period - compute "
+        f"p50) of a bare SCHED_FIFO {priorities[0]} thread (wake p99 "
+        f"{floors[0].get('wake_p99_us')} us, max {floors[0].get('wake_max_us')} us)"
+    )
+    if second:
+        text += (
+            f", {_count(result['floor_late_emulator'])} of a second one at {priorities[1]} in "
+            f"another process (the emulator's; wake p99 {floors[1].get('wake_p99_us')} us)"
+        )
+    print(
+        f"{result['rate_hz']:g} Hz: overruns {result['overruns']} / {result['cycles']}; the "
+        f"machine's floor for {seconds:g} s after it: {text}"
+    )
+
+
+def _count(value: object) -> str:
+    return "-" if value is None else str(value)
 
 
 def summary(
