@@ -419,8 +419,9 @@ class DriveEmulator:
         if self.compiled:
             kernels.setpoints(self.bank.ints, setpoints, torque)
             self.plant.step(setpoints, torque)
-            kernels.move(self.bank.ints, self.plant.position_counts(),
-                         self.plant.velocity_counts())  # fmt: skip
+            plant, scaling = self.plant, self.plant.scaling
+            kernels.move(self.bank.ints, plant.position, plant.velocity, scaling.factor,
+                         scaling.offset)  # fmt: skip
         else:
             order = self._order
             for i, drive in enumerate(order):
@@ -443,7 +444,7 @@ class DriveEmulator:
         kernels.sync_drives(scratch.ints, scratch.floats, slots, 0.0, self._now_bytes, out, ends,
                             np.zeros(1, dtype=bool))  # fmt: skip
         kernels.setpoints(scratch.ints, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=bool))
-        kernels.move(scratch.ints, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
+        kernels.move(scratch.ints, np.zeros(1), np.zeros(1), np.ones(1), np.zeros(1))
 
     def _tick(self, now: float) -> None:
         for drive in self._order:
