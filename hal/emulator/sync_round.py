@@ -17,7 +17,9 @@ drives (:func:`hal.emulator.kernels.sync_drives`), which encodes their TPDOs str
 the bus's buffer of wire frames; the others, and every transition, fault and EMCY, take the
 drives' Python path, which is also the whole of the ``IMOTION_JIT=0`` emulator. The physics
 step's set-points and new actuals are one call each around :meth:`Plant.step`. Same frames
-either way (``tests/test_emulator_kernels.py``).
+either way (``tests/test_emulator_kernels.py``), except their time stamps: the compiled round
+stamps a SYNC's TPDOs with one time, the Python path each as it is sent. The master reads no
+frame's time stamp (docs/emulator.md, "One time stamp per SYNC").
 """
 
 from __future__ import annotations
