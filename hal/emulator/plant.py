@@ -206,6 +206,7 @@ class Plant:
         if changed:
             backend.set_servo_mask(self._mask)
         backend.write(JointCommand(position=position, velocity=velocity))
+        backend.advance()  # the period's physics now (a SYNC's answer needs it), then check
         if backend.state is HardwareState.FAULT:  # diverged: reset to the initial pose
             backend.reset_faults()
             backend.activate()
