@@ -24,7 +24,7 @@ wake, own CPU), and as the last line a JSON object. The first second (servo on:
 ``activate()`` blocks the loop for its enabling cycles, by design; the first motion) is a
 warm-up, reported apart and not counted; it is the same loop as the measured run (as the
 daemon runs one loop), the counters put aside in the slack of its last cycle: a loop started
-anew after it (the real-time set-up again, 70-110 ms without a cycle) made the first
+anew after it (the real-time set-up again, 70-130 ms without a cycle) made the first
 measured step 2-3 times dearer, cold after the pause, and it overran now and then
 (``warmup_seam_periods``: periods between the warm-up's last cycle and the first measured
 one, 1 unless that cycle overran). The emulator's collections are counted from the
