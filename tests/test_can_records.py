@@ -84,3 +84,21 @@ def test_a_cut_record_keeps_its_whole_frames_and_a_failed_send_faults(rig, caplo
     io.send()
     assert ports[0].failed and "send of 0x204 failed: tx queue full" in faults[0].description
     assert ports[0].syncs_sent == 0 and ports[1].syncs_sent == 1
+
+
+def test_tpdos_decode_the_same_whatever_their_time_stamps(rig):
+    """The emulator's compiled round stamps every TPDO of a SYNC alike (one time per SYNC,
+    not one per frame): the master reads no frame's time stamp and never orders by them."""
+    io, ports, _ = rig
+
+    def tpdo1(node: int, position: int, stamp: float) -> bytes:
+        data = pdo.TPDO1_STRUCT.pack(0x27, position)
+        return encode(can.Message(arbitration_id=0x180 + node, data=data, timestamp=stamp))
+
+    ports[0].bus._records.append(tpdo1(3, 5, 1.0) + tpdo1(4, 6, 1.0))  # one stamp per SYNC
+    io.receive()
+    assert io.position.tolist()[:2] == [5, 6]
+    ports[0].bus._records.append(tpdo1(3, 7, 9.0) + tpdo1(4, 8, 0.5))  # stamps backwards
+    ports[0].bus._records.append(tpdo1(4, 9, 0.0))  # older stamp, later record: it wins
+    io.receive()
+    assert io.position.tolist()[:2] == [7, 9]

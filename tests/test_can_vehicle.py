@@ -66,3 +66,13 @@ def test_an_empty_mapping_has_arrays_of_no_wheels():
     assert m.matrix.shape == (0, 3) and m.inverse.shape == (3, 0)
     assert m.pose.shape == m.velocity.shape == m.command_pose.shape == (3,)
     assert m._wheels.shape == m.wheel_targets.shape == (0,)
+
+
+def test_measured_wheels_is_the_odometry_array_itself():
+    mapping = VehicleMapping(OMNI)
+    wheels = mapping.measured_wheels
+    mapping.start(np.array([0.1, 0.2, 0.3]))
+    mapping.measure(np.array([0.2, 0.2, 0.4]), None, 0.002)
+    assert mapping.measured_wheels is wheels  # updated in place (compiled callers share it)
+    np.testing.assert_array_equal(wheels, [0.2, 0.2, 0.4])
+    assert VehicleMapping.empty().measured_wheels.shape == (0,)

@@ -1,4 +1,4 @@
-"""DriveEmulator: each bus answered on its own SYNC, the MuJoCo plant, construction."""
+"""DriveEmulator: the MuJoCo plant, construction, the synchronous API, bus-off."""
 
 from __future__ import annotations
 
@@ -33,65 +33,6 @@ def _operational(emulator: DriveEmulator) -> None:
             drive._apply_controlword(controlword)
         drive._after_state_change(False)
         assert drive.sm.state is PowerState.OPERATION_ENABLED
-
-
-def test_each_bus_is_answered_on_its_own_sync(pa10):
-    clock = FakeClock()
-    with DriveEmulator(pa10, clock=clock) as emulator:
-        emulator.open()
-        a, b = FrameMaster(emulator, "arm_a", clock), FrameMaster(emulator, "arm_b", clock)
-        a.nmt(0x01)
-        b.nmt(0x01)
-        a.send(0x080)
-        assert tpdo1(a.exchange(), 1) is not None  # at once: no wait for arm_b
-        b.send(0x080)
-        assert tpdo1(b.exchange(), 5) is not None
-        assert emulator.cycles == 0  # the first round: nothing to step yet
-        for _ in range(3):  # arm_b goes silent: arm_a's SYNCs go on, each a new round
-            a.send(0x080)
-            assert tpdo1(a.exchange(), 1) is not None
-        assert emulator.cycles == 3
-        b.send(0x080)  # arm_b back: part of the round arm_a opened
-        assert tpdo1(b.exchange(), 5) is not None
-        assert emulator.cycles == 3
-        b.send(0x080)  # arm_b first this time: it opens the next round
-        b.exchange()
-        a.send(0x080)
-        a.exchange()
-        assert emulator.cycles == 4
-        assert emulator.sim_time == pytest.approx(4 * emulator.period)
-        a.close()
-        b.close()
-
-
-def test_a_target_acts_over_the_period_up_to_the_next_sync(pa10):
-    """TPDOs sample at SYNC: the position answering round k is that of round k - 1's target."""
-    clock = FakeClock()
-    with DriveEmulator(pa10, clock=clock) as emulator:
-        emulator.open()
-        a = FrameMaster(emulator, "arm_a", clock)
-        a.nmt(0x01)
-        position = tpdo1(a.cycle(), 1)[1]
-        for controlword in (0x06, 0x07, 0x0F):
-            status = tpdo1(a.cycle({1: (controlword, position)}), 1)
-        assert status is not None and status[0] & 0x6F == 0x27  # operation enabled at once
-        target = position + 2000  # counts: well inside the servo's pull
-        moved = [tpdo1(a.cycle({1: (0x0F, target)}), 1)[1] for _ in range(40)]
-        assert abs(moved[0] - position) < 20  # the new target has not acted yet
-        assert abs(moved[1] - position) > abs(moved[0] - position)
-        assert abs(moved[-1] - target) < 100
-        a.close()
-
-
-def test_on_sync_steps_the_physics_one_period_and_holds_when_disabled(pa10):
-    with DriveEmulator(pa10) as emulator:
-        before = {n: d.actual for n, d in emulator.drives.items()}
-        for _ in range(50):
-            emulator.on_sync()
-        assert emulator.cycles == 50
-        assert emulator.sim_time == pytest.approx(50 * emulator.period)
-        for name, drive in emulator.drives.items():  # servo off, gravity compensated
-            assert abs(drive.actual - before[name]) < 500, name
 
 
 def test_every_joint_tracks_a_sine_in_csp(smartpal5):
@@ -197,57 +138,3 @@ def test_wait_answered_counts_the_syncs_handled_per_bus(pa10):
         assert a.frames() == []
         a.close()
         b.close()
-
-
-def test_threads_answer_a_sync_with_its_tpdos_already_on_the_bus(pa10):
-    with DriveEmulator(pa10) as emulator:
-        emulator.start()
-        buses = {name: emulator.open_master_bus(name) for name in emulator.channels}
-        nodes = {
-            name: {c.node_id for c in emulator.profile.drives.values() if c.bus == name}
-            for name in buses
-        }
-        sent = dict.fromkeys(buses, 0)
-        for bus in buses.values():
-            bus.send(can.Message(arbitration_id=0x000, data=[0x01, 0], is_extended_id=False))
-        for _ in range(20):
-            for name, bus in buses.items():
-                bus.send(can.Message(arbitration_id=0x080, is_extended_id=False))
-                sent[name] += 1
-            assert emulator.wait_answered(sent, 5.0)
-            for name, bus in buses.items():
-                frames = iter(lambda b=bus: b.recv(0.0), None)
-                tpdo = {
-                    m.arbitration_id - 0x180 for m in frames if m.arbitration_id & 0x780 == 0x180
-                }
-                assert tpdo == nodes[name]
-        assert emulator.sync_counts() == sent
-        for bus in buses.values():
-            bus.shutdown()
-
-
-def test_unix_buses_are_served_by_one_select_thread(pa10, tmp_path):
-    channels = {bus: ("unix", str(tmp_path / bus)) for bus in ("arm_a", "arm_b")}
-    with DriveEmulator(pa10, channels=channels) as emulator:
-        emulator.start()
-        assert [t.name for t in emulator._threads] == ["emu"]
-        buses = {name: can.Bus(interface="unix", channel=ch) for name, (_, ch) in channels.items()}
-        nodes = {
-            name: {c.node_id for c in emulator.profile.drives.values() if c.bus == name}
-            for name in buses
-        }
-        try:
-            for bus in buses.values():
-                bus.send(can.Message(arbitration_id=0x000, data=[0x01, 0], is_extended_id=False))
-            for _ in range(5):
-                for name, bus in buses.items():
-                    bus.send(can.Message(arbitration_id=0x080, is_extended_id=False))
-                    seen: set[int] = set()
-                    while seen != nodes[name]:
-                        msg = bus.recv(5.0)
-                        assert msg is not None, f"bus {name}: TPDO1 of {nodes[name] - seen} missing"
-                        if msg.arbitration_id & 0x780 == 0x180:
-                            seen.add(msg.arbitration_id - 0x180)
-        finally:
-            for bus in buses.values():
-                bus.shutdown()

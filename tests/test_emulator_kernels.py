@@ -362,9 +362,13 @@ def test_setpoints_and_move_as_the_drives_do():
     setpoint, torque = np.zeros(3, dtype=np.int64), np.zeros(3, dtype=bool)
     kernels.setpoints(bank.ints, setpoint, torque)
     assert list(setpoint) == [1, 2, 3] and list(torque) == [True, True, False]
-    kernels.move(bank.ints, np.array([2**31, -(2**31) - 1, 7]), np.array([2**40, -(2**40), 5]))
-    assert list(bank.ints[:, INT["actual"]]) == [-(2**31), 2**31 - 1, 7]
-    assert list(bank.ints[:, INT["velocity"]]) == [2**31 - 1, -(2**31), 5]
+    # SI in (2 counts per unit, offset 1): rounded half to even as ScalingArray.to_counts
+    factor, offset = np.full(3, 2.0), np.ones(3)
+    position = (np.array([2.0**31, -(2.0**31) - 1, 7.0]) - 1.0) / 2.0
+    position[2] = 3.25  # 7.5 counts: 8
+    kernels.move(bank.ints, position, np.array([2.0**40, -(2.0**40), 1.25]), factor, offset)
+    assert list(bank.ints[:, INT["actual"]]) == [-(2**31), 2**31 - 1, 8]
+    assert list(bank.ints[:, INT["velocity"]]) == [2**31 - 1, -(2**31), 2]
 
 
 @pytest.mark.parametrize("robot", ["pa10", "smartpal5"])
@@ -385,6 +389,54 @@ def test_plant_step_compiled_is_the_numpy_step(robot):
             plant.step(setpoints, torque)
         np.testing.assert_array_equal(plants[0].position_counts(), plants[1].position_counts())
         np.testing.assert_array_equal(plants[0].velocity_counts(), plants[1].velocity_counts())
+        _assert_same_plants(*plants)
+    emulator.close()
+
+
+def _assert_same_plants(compiled: Plant, plain: Plant) -> None:
+    """The SI state of both plants to 1e-12: measured values, servo mask, the commands
+    MuJoCo got (so its state too) and both vehicle mappings' state."""
+    for name in ("position", "velocity"):
+        np.testing.assert_allclose(getattr(compiled, name), getattr(plain, name), rtol=1e-12,
+                                   atol=1e-12, err_msg=name)  # fmt: skip
+    np.testing.assert_array_equal(compiled.backend.servo_mask, plain.backend.servo_mask)
+    np.testing.assert_allclose(compiled.backend.read().position, plain.backend.read().position,
+                               rtol=1e-12, atol=1e-12)  # fmt: skip
+    assert compiled.sim_time == plain.sim_time
+    for attr in ("_mapping_cmd", "_mapping_act"):
+        a, b = getattr(compiled, attr), getattr(plain, attr)
+        if a is None:
+            assert b is None
+            continue
+        for field in ("pose", "velocity", "measured_wheels", "command_pose", "wheel_targets"):
+            np.testing.assert_allclose(getattr(a, field), getattr(b, field), rtol=1e-12,
+                                       atol=1e-12, err_msg=f"{attr}.{field}")  # fmt: skip
+
+
+def test_the_compiled_vehicle_step_is_the_numpy_one_when_the_base_turns_on_and_off():
+    """SmartPal V's wheels: the base off (one wheel drive without torque: the measured pose
+    held), on (the odometry starts at the measured pose), moving along a curve and turning,
+    off and on again; every step the same state as the NumPy step's, to 1e-12."""
+    loaded = load_robot("smartpal5")
+    emulator = DriveEmulator(loaded, compiled=False)
+    plants = [Plant(loaded, emulator.profile, emulator.period, compiled=c) for c in (True, False)]
+    for plant in plants:
+        plant.start()
+    wheels = [plants[0].names.index(name) for name in emulator.profile.wheels]
+    assert len(wheels) == 3
+    start = plants[0].position_counts()
+    torque = np.ones(start.size, dtype=bool)
+    for k in range(90):
+        torque[wheels[1]] = not 20 <= k < 30 and k >= 5  # off, on at 5, off 20-29, on
+        setpoints = start.copy()
+        swing = np.array([1.0, -0.5, 0.7]) * 4000 * math.sin(k / 15)  # a curve, turning
+        setpoints[wheels] += swing.astype(np.int64)
+        for plant in plants:
+            plant.step(setpoints, torque)
+        np.testing.assert_array_equal(plants[0].position_counts(), plants[1].position_counts())
+        np.testing.assert_array_equal(plants[0].velocity_counts(), plants[1].velocity_counts())
+        _assert_same_plants(*plants)
+    assert plants[0]._vehicle_on[0] and abs(plants[0]._mapping_cmd.pose).max() > 1e-4
     emulator.close()
 
 

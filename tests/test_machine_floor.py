@@ -20,3 +20,17 @@ def test_the_floor_runs_in_its_own_process_and_reports_its_wakes():
 def test_a_failing_floor_says_why_instead_of_raising():
     floor = machine_floor.measure(rate=0.0, seconds=0.1)  # no period
     assert floor.get("error")
+
+
+def test_a_threshold_counts_the_wakes_later_than_it_at_the_priority_asked():
+    floor = machine_floor.measure(rate=500.0, seconds=0.2, priority=70, threshold_us=-1.0)
+    assert floor["priority"] == 70 and floor["threshold_us"] == -1.0
+    assert floor["late_past_threshold"] == 100  # every wake is later than -1 us
+    assert 0 <= floor["late"] <= 100
+
+
+def test_loops_measured_together_answer_in_the_order_of_their_priorities():
+    loop, second = machine_floor.measure_together(500.0, 0.2, (80, 70), threshold_us=1e6)
+    assert (loop["priority"], second["priority"]) == (80, 70)
+    assert loop["threshold_us"] == second["threshold_us"] == 1e6
+    assert loop["late_past_threshold"] >= 0 and second["late_past_threshold"] >= 0

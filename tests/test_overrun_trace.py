@@ -58,3 +58,23 @@ def test_collections_are_counted_while_installed_and_reset_forgets():
     finally:
         trace.close()
     assert trace._on_gc not in gc.callbacks
+
+
+def test_a_negative_cycle_is_not_recorded_and_forgetting_collections_keeps_the_cycles():
+    trace = CycleTrace(3)
+    try:
+        trace.begin(-1)  # a warm-up step: nothing of it is kept
+        trace.read_done(1e-3, 1e-4, 2)
+        trace.motion_started()
+        gc.collect(0)
+        trace.end()
+        assert not trace.read_wall.any() and not trace.started.any() and not trace.gc_in.any()
+        assert trace.gc_counts[0] >= 1
+        trace.begin(0)
+        trace.read_done(1e-3, 1e-4, 2)
+        trace.end()
+        trace.forget_collections()  # the measured run starts: its cycles stay
+        assert trace.gc_counts == [0, 0, 0] and trace.gc_total == 0.0
+        assert trace.read_wall[0] == 1e-3 and trace.missing[0] == 2
+    finally:
+        trace.close()

@@ -2,7 +2,8 @@
 """HIL benchmark: motion core + CAN backend + drive emulator at a fixed rate.
 
 Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,800,625,500]
-                                 [--seconds 60] [--emulator process|thread] [--drives PATH]
+                                 [--seconds 60] [--floor-seconds S]
+                                 [--emulator process|thread] [--drives PATH]
                                  [--planner process|thread] [--gc slack|automatic]
                                  [--planner-priority 50] [--no-realtime]
 
@@ -21,7 +22,14 @@ threads), the load average, the garbage collections of both processes, one row p
 with what it was made of and its cause (:mod:`overrun_trace`: gc, TPDO wait, off CPU, late
 wake, own CPU), and as the last line a JSON object. The first second (servo on:
 ``activate()`` blocks the loop for its enabling cycles, by design; the first motion) is a
-warm-up, reported apart and not counted. Alarms (FAULT type: the loop stops) and warnings
+warm-up, reported apart and not counted; it is the same loop as the measured run (as the
+daemon runs one loop), the counters put aside in the slack of its last cycle: a loop started
+anew after it (the real-time set-up again, 70-130 ms without a cycle) made the first
+measured step 2-3 times dearer, cold after the pause, and it overran now and then
+(``warmup_seam_periods``: periods between the warm-up's last cycle and the first measured
+one, 1 unless that cycle overran). The emulator's collections are counted from the
+warm-up on (its ``status`` is a round trip to its process, never asked while the loop
+runs). Alarms (FAULT type: the loop stops) and warnings
 (e.g. a motion that ended off its target) are counted apart. As in the daemon, the garbage
 collector runs in the loop's slack (``--gc automatic``: CPython's own) and the planning of
 the hand line and arms close, the only planning that costs milliseconds, runs in a worker
@@ -33,12 +41,22 @@ every run (``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs 
 thread under SCHED_FIFO (below the loop's 80 and the emulator's 70): a planner that the host
 deschedules while it holds the GIL stalls the real-time loop for as long. The planning
 thread sleeps until the loop finds the robot idle (no polling).
+
+Last, the machine's floor (:mod:`machine_floor`; ``--floor-seconds``, default as long as a
+run, 0: none), after the runs, at each run's rate: a bare SCHED_FIFO 80 thread sleeping to
+the same deadlines and, with the emulator process under SCHED_FIFO, a second bare one at its
+priority in another process at the same time (the real setup has two real-time threads on
+this 2-core machine). Each counts its wakes later than the period minus the run's compute
+p50 (a wake that late makes a step of median cost overrun), printed beside the run's
+overruns and in the JSON line (``floor_late``, ``floor_late_emulator``, ``machine_floor``):
+a run's overruns near the floor's count are the host's, not the loop's.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import threading
@@ -50,6 +68,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
+import machine_floor  # noqa: E402
 import numpy as np  # noqa: E402
 from loop_mix import WorkerLineCheck, segments  # noqa: E402
 from overrun_trace import CycleTrace, print_overruns  # noqa: E402
@@ -93,10 +112,17 @@ def main() -> int:
                              "(default), or CPython's automatic collection")  # fmt: skip
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
+    parser.add_argument("--floor-seconds", type=float, default=None,
+                        help="after the runs, the machine's floor at each run's rate "
+                             "(tools/machine_floor.py) this long [s] (default: --seconds; "
+                             "0: skip)")  # fmt: skip
     args = parser.parse_args()
     sys.setswitchinterval(args.switch_interval)
+    floor_seconds = args.seconds if args.floor_seconds is None else args.floor_seconds
     if not args.rates:
         result = run(args, args.rate)
+        if floor_seconds > 0:
+            add_floor(result, floor_seconds)
         print(json.dumps(result))
         return 0 if not result["alarms"] else 1
     rates = [float(rate) for rate in args.rates.split(",")]
@@ -106,9 +132,14 @@ def main() -> int:
         except ValueError as exc:
             parser.error(f"--rates: {rate:g} Hz: {exc}")
     runs = [run(args, rate) for rate in rates]
-    print("summary (rate, overruns, alarms, compute p99, wake p99, master CPU p50, load avg):")
+    if floor_seconds > 0:
+        for r in runs:
+            add_floor(r, floor_seconds)
+    print("summary (rate, overruns, machine floor's late wakes (FIFO 80 / 70), alarms, "
+          "compute p99, wake p99, master CPU p50, load avg):")  # fmt: skip
     for r in runs:
         print(f"  {r['rate_hz']:7g} Hz  overruns {r['overruns']:6d} / {r['cycles']}  "
+              f"floor {_count(r.get('floor_late'))} / {_count(r.get('floor_late_emulator'))}  "
               f"alarms {r['alarms']}  compute p99 {r['compute_us_p99']:7.1f} us  "
               f"wake p99 {r['wake_latency_us_p99']:7.1f} us  "
               f"master {r['master_cpu_us_p50']:6.1f} us  "
@@ -188,8 +219,18 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
                 else:
                     ready.append((name, motion))
 
+    warm_cycles = int(rate * WARMUP_S)
+    seam: dict[str, Any] = {}  # the counters where the measured run begins
+    child = getattr(getattr(hw, "emulator", None), "process", None)
+    # The emulator's garbage collections: a round trip to its process, never while the
+    # loop runs (its main thread answers holding the emulator's lock): counted from here.
+    status0 = emulator_status(hw)
+
     def step(cycle: int, t: float) -> bool:
-        trace.begin(cycle)
+        measured = cycle - warm_cycles  # < 0: the warm-up (not recorded)
+        if measured <= 0:
+            seam["t_first" if measured == 0 else "t_last_warm"] = t
+        trace.begin(measured if measured >= 0 else -1)
         if cycle == 1 and not done["servo_on"]:
             done["servo_on"] = 1
             core.servo_on()
@@ -209,31 +250,43 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         trace.end()
         return core.state != CoreState.ALARM
 
+    def slack(ns: int) -> None:
+        if loop.stats.cycles == warm_cycles:  # after the warm-up's last step
+            start_measuring()
+        if collector is not None:
+            collector(ns)
+
+    def start_measuring() -> None:
+        """The counters of the warm-up put aside, in the slack of its last step (outside
+        every step; cheap reads only)."""
+        trace.forget_collections()
+        seam.update(
+            stats=(loop.stats.overruns, loop.stats.late), bits=dict(hw.bits),
+            sent=dict(hw.frames_sent), received=dict(hw.frames_received),
+            slack=list(collector.collections) if collector is not None else [0, 0],
+            own_cpu=sum(os.times()[:2]), start=time.monotonic(),
+            emulator_cpu=process_cpu(child.pid) if child is not None else None,
+        )  # fmt: skip
+
     thread = threading.Thread(target=planner, daemon=True)
     thread.start()
-    # Warm-up: servo on (activate() blocks the loop for its enabling cycles, by design) and
-    # the first motion; then the measured run, in the same loop settings.
+    # One loop for the warm-up (servo on: activate() blocks the loop for its enabling
+    # cycles, by design; the first motion) and the measured run, as the daemon runs one: a
+    # second loop started after the warm-up (real-time set-up again: mlockall after
+    # munlockall, 70-90 ms without cycles) made the first measured step 2-3 times dearer.
     collector = SlackCollector() if args.gc == "slack" else None
     if collector is not None:
         collector.start()
-    warm = FixedRateLoop(rate, step, realtime=not args.no_realtime, slack=collector)
-    warm.run(max_cycles=int(rate * WARMUP_S))
-    warmup = warm.stats.summary()
-    trace.reset()
-    bits0, sent0, recv0 = dict(hw.bits), dict(hw.frames_sent), dict(hw.frames_received)
     loop = FixedRateLoop(
         rate, step, realtime=not args.no_realtime,
-        stats_capacity=int(rate * args.seconds) + 10, slack=collector,
+        stats_capacity=warm_cycles + int(rate * args.seconds) + 10, slack=slack,
     )  # fmt: skip
-    slack0 = list(collector.collections) if collector is not None else [0, 0]
-    child = getattr(getattr(hw, "emulator", None), "process", None)
-    status0 = emulator_status(hw)
-    emulator_cpu0 = process_cpu(child.pid) if child is not None else None
-    own_cpu0 = sum(os.times()[:2])
-    start = time.monotonic()
-    loop.run(max_cycles=int(rate * args.seconds))
-    elapsed = time.monotonic() - start
-    own_cpu = sum(os.times()[:2]) - own_cpu0
+    loop.run(max_cycles=warm_cycles + int(rate * args.seconds))
+    if "start" not in seam:  # stopped in the warm-up (an alarm): nothing measured
+        start_measuring()
+    elapsed = time.monotonic() - seam["start"]
+    own_cpu = sum(os.times()[:2]) - seam["own_cpu"]
+    emulator_cpu0 = seam["emulator_cpu"]
     emulator_cpu1 = process_cpu(child.pid) if child is not None else None
     emulator_cpu = (
         emulator_cpu1 - emulator_cpu0
@@ -248,8 +301,9 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     emulator_gc = emulator_status(hw, status0)
     buses = {}
     for name, cfg in hw.profile.buses.items():
-        frames = hw.frames_sent[name] - sent0[name] + hw.frames_received[name] - recv0[name]
-        bits = hw.bits[name] - bits0[name]
+        frames = hw.frames_sent[name] - seam["sent"][name]
+        frames += hw.frames_received[name] - seam["received"][name]
+        bits = hw.bits[name] - seam["bits"][name]
         buses[name] = {
             "frames_per_s": round(frames / elapsed, 1),
             "load_percent": round(100.0 * bits / elapsed / cfg.bitrate, 2),
@@ -260,10 +314,21 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     thread.join()
     if line_check is not None:
         line_check.close()
-    stats = loop.stats.summary()
-    overruns = trace.overruns(
-        dt, hw.feedback_wait, loop.stats.latency_us(), loop.stats.compute_us()
+    latency_us, compute_us = loop.stats.latency_us(), loop.stats.compute_us()
+    warmup = summary(latency_us[:warm_cycles], compute_us[:warm_cycles], seam["stats"])
+    overruns0, late0 = seam["stats"]
+    stats = summary(
+        latency_us[warm_cycles:],
+        compute_us[warm_cycles:],
+        (loop.stats.overruns - overruns0, loop.stats.late - late0),
     )
+    # The measured run continues the warm-up's loop: its first deadline is a whole number
+    # of periods after the warm-up's last one (1 unless that step overran).
+    seam_periods = round(
+        (seam.get("t_first", math.nan) - seam.get("t_last_warm", math.nan)) / dt, 6
+    )
+    overruns = trace.overruns(dt, hw.feedback_wait, latency_us[warm_cycles:],
+                              compute_us[warm_cycles:])  # fmt: skip
     load = os.getloadavg()
     measured = max(1, min(int(stats["cycles"]), trace.capacity))
     cpu = trace.master_cpu[:measured] * 1e6
@@ -295,7 +360,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         )
     print(
         f"warm-up {WARMUP_S:g} s (servo on, first motion; not counted): overruns "
-        f"{warmup['overruns']}, compute max {warmup['compute_us_max']:.0f} us"
+        f"{warmup['overruns']}, compute max {warmup['compute_us_max']:.0f} us; the "
+        f"measured run continues its loop ({seam_periods:g} period(s) after its last cycle)"
     )
     print(
         f"cycles {stats['cycles']}, deadline misses (overruns) {stats['overruns']}, "
@@ -320,7 +386,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     gc_figures = {
         "gc": args.gc,
         "gc_in_slack": (
-            [a - b for a, b in zip(collector.collections, slack0, strict=True)]
+            [a - b for a, b in zip(collector.collections, seam["slack"], strict=True)]
             if collector is not None
             else None
         ),
@@ -338,7 +404,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     if emulator_gc:
         print(f"garbage collections in the emulator process: {emulator_gc['gc_collections']}, "
               f"{emulator_gc['gc_total_ms']:.1f} ms in all, longest "
-              f"{emulator_gc['gc_longest_ms']:.2f} ms (over its whole life)")  # fmt: skip
+              f"{emulator_gc['gc_longest_ms']:.2f} ms (counts from the warm-up on, longest over "
+              f"its life)")  # fmt: skip
     if by_segment:
         print("alarms and warnings by segment of the mix: " + ", ".join(by_segment))
     if refused:
@@ -370,10 +437,73 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "overrun_causes": causes,
         "warmup_overruns": warmup["overruns"],
         "warmup_compute_us_max": warmup["compute_us_max"],
+        "warmup_seam_periods": seam_periods,
         "overrun_cycles": overruns[:100],
         **stats,
     }
     return result
+
+
+def add_floor(result: dict[str, Any], seconds: float) -> None:
+    """The machine's floor for the run ``result`` (module doc), measured now for
+    ``seconds`` [s] at its rate: a bare SCHED_FIFO 80 thread, and with an emulator process
+    under SCHED_FIFO a second one at its priority in another process, at the same time.
+    Each counts its wakes later than the period minus the run's compute p50 (a wake that
+    late makes a step of median cost overrun). Adds ``machine_floor``, ``floor_late`` and
+    ``floor_late_emulator`` (None without a second thread) to ``result`` and prints them
+    beside the run's overruns."""
+    rate = float(result["rate_hz"])
+    compute = float(result["compute_us_p50"])
+    threshold = 1e6 / rate - (compute if math.isfinite(compute) else 0.0)
+    priorities = [machine_floor.LOOP_PRIORITY]
+    second = result["emulator"] == "process" and bool(result["emulator_priority"])
+    if second:
+        priorities.append(int(result["emulator_priority"]))
+    floors = machine_floor.measure_together(rate, seconds, priorities, threshold)
+    result["machine_floor"] = {
+        "seconds": seconds,
+        "threshold_us": round(threshold, 1),
+        "loop": floors[0],
+        "emulator": floors[1] if second else None,
+    }
+    result["floor_late"] = floors[0].get("late_past_threshold")
+    result["floor_late_emulator"] = floors[1].get("late_past_threshold") if second else None
+    text = (
+        f"{_count(result['floor_late'])} wakes later than {threshold:.0f} us (period - compute "
+        f"p50) of a bare SCHED_FIFO {priorities[0]} thread (wake p99 "
+        f"{floors[0].get('wake_p99_us')} us, max {floors[0].get('wake_max_us')} us)"
+    )
+    if second:
+        text += (
+            f", {_count(result['floor_late_emulator'])} of a second one at {priorities[1]} in "
+            f"another process (the emulator's; wake p99 {floors[1].get('wake_p99_us')} us)"
+        )
+    print(
+        f"{result['rate_hz']:g} Hz: overruns {result['overruns']} / {result['cycles']}; the "
+        f"machine's floor for {seconds:g} s after it: {text}"
+    )
+
+
+def _count(value: object) -> str:
+    return "-" if value is None else str(value)
+
+
+def summary(
+    latency_us: np.ndarray, compute_us: np.ndarray, counts: tuple[int, int]
+) -> dict[str, Any]:
+    """The loop's figures over some of its cycles, as :meth:`LoopStats.summary` gives them
+    for all: wake latency and compute time [µs] (p50, p99, max; NaN without cycles) and
+    ``counts``, their (overruns, late by more than half a period)."""
+    out: dict[str, Any] = {"cycles": int(compute_us.size), "overruns": int(counts[0]),
+                           "late_by_more_than_half_period": int(counts[1])}  # fmt: skip
+    for name, values in (("compute_us", compute_us), ("wake_latency_us", latency_us)):
+        p50, p99, top = (
+            (float(np.percentile(values, q)) for q in (50, 99, 100))
+            if values.size
+            else (math.nan,) * 3
+        )
+        out.update({f"{name}_p50": p50, f"{name}_p99": p99, f"{name}_max": top})
+    return out
 
 
 def emulator_status(hw: CanBackend, since: dict[str, Any] | None = None) -> dict[str, Any]:

@@ -2,13 +2,19 @@
 """The machine's floor for a periodic real-time loop: a SCHED_FIFO thread (priority 80, as
 the control loop's) that only sleeps to absolute deadlines, no Python work, no other thread.
 
-Usage: python tools/machine_floor.py [--rate 1000] [--seconds 60]
+Usage: python tools/machine_floor.py [--rate 1000] [--seconds 60] [--priority 80]
+                                     [--threshold-us US]
 
 Prints one JSON line: ``late`` (cycles woken later than half a period), ``wake_p99_us``,
-``wake_max_us`` and ``fifo`` (whether SCHED_FIFO was granted). On shared virtual cores even
-this thread is late now and then (the host runs something else on the core): a loop's late
-cycles are judged against the floor measured in the same minutes. :func:`measure` runs it in
-a process of its own (the benchmarks call it before or after their runs).
+``wake_max_us`` and ``fifo`` (whether SCHED_FIFO was granted); with ``--threshold-us`` also
+``late_past_threshold`` (cycles woken later than that [µs]: for a loop whose step takes
+``c`` [µs], a wake later than ``period - c`` is an overrun), ``threshold_us`` and
+``priority``. On shared virtual cores even this thread is late now and then (the host runs
+something else on the core): a loop's late cycles are judged against the floor measured in
+the same minutes. :func:`measure` runs it in a process of its own (the benchmarks call it
+before or after their runs); :func:`measure_together` runs several such processes at once,
+each at its own priority, as a setup of several real-time threads (``tools/bench_hil.py``:
+the loop at 80 and the drive emulator's process at 70 on a 2-core machine).
 """
 
 from __future__ import annotations
@@ -19,18 +25,25 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+#: The control loop's SCHED_FIFO priority (controller.control.realtime's default).
+LOOP_PRIORITY = 80
 
-def bare_loop(rate: float, seconds: float) -> dict[str, Any]:
-    """Sleep to ``rate`` [Hz] deadlines for ``seconds`` [s] in this thread (SCHED_FIFO 80
-    when permitted); the late count and wake latencies [µs]."""
+
+def bare_loop(
+    rate: float, seconds: float, priority: int = LOOP_PRIORITY, threshold_us: float | None = None
+) -> dict[str, Any]:
+    """Sleep to ``rate`` [Hz] deadlines for ``seconds`` [s] in this thread (SCHED_FIFO
+    ``priority`` when permitted); the late count and wake latencies [µs], and with
+    ``threshold_us`` the wakes later than it (module doc)."""
     fifo = True
     try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(80))
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except (OSError, AttributeError):
         fifo = False
     period = round(1e9 / rate)
@@ -43,30 +56,66 @@ def bare_loop(rate: float, seconds: float) -> dict[str, Any]:
         if deadline > now:
             time.sleep((deadline - now) / 1e9)
         wake[k] = (time.monotonic_ns() - deadline) / 1e3
-    return {
+    out: dict[str, Any] = {
         "late": int(np.count_nonzero(wake > 0.5 * period / 1e3)),
         "wake_p99_us": round(float(np.percentile(wake, 99.0)), 1),
         "wake_max_us": round(float(wake.max()), 1),
         "fifo": fifo,
     }
+    if threshold_us is not None:
+        out["late_past_threshold"] = int(np.count_nonzero(wake > threshold_us))
+        out["threshold_us"] = round(float(threshold_us), 1)
+        out["priority"] = priority
+    return out
 
 
-def measure(rate: float, seconds: float) -> dict[str, Any]:
+def measure(
+    rate: float, seconds: float, priority: int = LOOP_PRIORITY, threshold_us: float | None = None
+) -> dict[str, Any]:
     """:func:`bare_loop` in a process of its own (nothing else of the caller's in it); on a
     failure ``{"error": ...}``."""
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--rate", f"{rate:g}"]
-    cmd += ["--seconds", f"{seconds:g}"]
-    out = subprocess.run(cmd, capture_output=True, text=True, timeout=seconds + 60)
-    lines = out.stdout.strip().splitlines()
-    return dict(json.loads(lines[-1])) if lines else {"error": out.stderr.strip()[-300:]}
+    return measure_together(rate, seconds, (priority,), threshold_us)[0]
+
+
+def measure_together(
+    rate: float, seconds: float, priorities: Sequence[int], threshold_us: float | None = None
+) -> list[dict[str, Any]]:
+    """One :func:`bare_loop` process per priority of ``priorities``, all at the same time
+    (same rate and deadlines' period; each its own start); their results in that order,
+    ``{"error": ...}`` for one that failed."""
+    procs = []
+    for priority in priorities:
+        cmd = [sys.executable, str(Path(__file__).resolve()), "--rate", f"{rate:g}"]
+        cmd += ["--seconds", f"{seconds:g}"]
+        if priority != LOOP_PRIORITY or threshold_us is not None:
+            cmd += ["--priority", str(priority)]
+        if threshold_us is not None:
+            cmd += ["--threshold-us", repr(float(threshold_us))]
+        procs.append(subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                      text=True))  # fmt: skip
+    results = []
+    for proc in procs:
+        try:
+            stdout, stderr = proc.communicate(timeout=seconds + 60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            stdout, stderr = proc.communicate()
+        lines = stdout.strip().splitlines()
+        results.append(dict(json.loads(lines[-1])) if lines else {"error": stderr.strip()[-300:]})
+    return results
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rate", type=float, default=1000.0, help="[Hz]")
     parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--priority", type=int, default=LOOP_PRIORITY,
+                        help="SCHED_FIFO priority (1..99)")  # fmt: skip
+    parser.add_argument("--threshold-us", type=float, default=None,
+                        help="also count the wakes later than this [us]")  # fmt: skip
     args = parser.parse_args()
-    print(json.dumps(bare_loop(args.rate, args.seconds)), flush=True)
+    result = bare_loop(args.rate, args.seconds, args.priority, args.threshold_us)
+    print(json.dumps(result), flush=True)
     return 0
 
 

@@ -84,6 +84,11 @@ class CycleTrace:
             self.master_wall,
         ):
             array.fill(0)
+        self.forget_collections()
+
+    def forget_collections(self) -> None:
+        """Forget the collections counted so far (not the cycles: cheap enough for a step,
+        e.g. the first measured one of a loop whose earlier cycles were not recorded)."""
         self.gc_total = self.gc_longest = self._gc_end = 0.0
         self.gc_counts = [0, 0, 0]
         self.gc_longest_generation = -1
@@ -106,7 +111,7 @@ class CycleTrace:
 
     # ----------------------------------------------------------------------- the cycle
     def begin(self, cycle: int) -> None:
-        """The step of ``cycle`` starts."""
+        """The step of ``cycle`` starts (a negative ``cycle``: not recorded)."""
         self._cycle = cycle if cycle < self.capacity else -1
         if self._cycle >= 0:
             self.gc_before[cycle] = self.gc_total - self._gc_end

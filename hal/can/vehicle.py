@@ -81,6 +81,12 @@ class VehicleMapping:
         self._wheels, self.wheel_targets = np.zeros(0), np.zeros(0)
         return self
 
+    @property
+    def measured_wheels(self) -> np.ndarray:
+        """The last measured wheel angles [rad] (the array itself, which compiled callers
+        update in place as :meth:`measure` does)."""
+        return self._wheels
+
     def start(self, wheels: np.ndarray, pose: np.ndarray | None = None) -> None:
         """Start odometry at ``pose`` (default: the origin) with wheels at ``wheels`` [rad]."""
         if pose is not None:

@@ -5,16 +5,9 @@ puts one :class:`~hal.emulator.drive.EmulatedDrive` per drive on a python-can bu
 bus (:class:`~hal.emulator.port.Port`), and moves the joints in a
 :class:`~hal.emulator.plant.Plant` (MuJoCo).
 
-**Each bus on its own SYNC.** Simulated time advances one period per round of SYNCs. A SYNC
-on a bus is answered at once and on that bus alone: if this bus already had a SYNC since the
-last physics step, a new round has begun and the physics steps one period first (with the
-set-points latched at the previous round's SYNCs, every bus's); then the bus's drives latch
-their RPDOs (state machine, new targets) and sample: their TPDOs carry the statusword after
-the controlword and the position at this SYNC, as a real drive samples at SYNC. No bus ever
-waits for another: a bus whose SYNC comes late, or never, costs nothing to the others (the
-physics steps on whichever bus's SYNC opens the next round). The targets of round ``k`` act
-over the period that ends at round ``k + 1``'s SYNCs, so a master reads the position of its
-previous set-point (feedback one cycle behind the command, as on real CSP drives).
+**Each bus on its own SYNC** (:mod:`hal.emulator.sync_round`): simulated time advances
+one period per round of SYNCs; a SYNC is answered at once on its bus alone, the physics
+stepping first when it opens a new round. No bus waits for another.
 
 **Master rounds (in process).** Per bus the emulator counts the SYNC frames it has handled,
 ignored ones included (bus-off). A master in the same process (``--hal hil`` with
@@ -29,10 +22,11 @@ injection). ``imotion-sim`` (:mod:`hal.emulator.main`) puts them on ``unix`` bus
 
 **Two ways to run it.**
 
-* Threaded (``--hal hil``, ``imotion-sim``): :meth:`DriveEmulator.start`. Buses with a file
-  descriptor (``unix``, ``socketcan``) are served by one thread that waits on all of them
-  with ``select`` and ticks the heartbeats; others (``virtual``) get one receive thread each
-  and a ticker. :meth:`DriveEmulator.stop` ends them.
+* Threaded (``--hal hil``, ``imotion-sim``): :meth:`DriveEmulator.start` runs
+  :class:`hal.emulator.threads.BusThreads`: buses with a file descriptor (``unix``,
+  ``socketcan``) are served by one thread that waits on all of them with ``select`` and
+  ticks the heartbeats; others (``virtual``) get one receive thread each and a ticker.
+  :meth:`DriveEmulator.stop` ends them.
 * Synchronous (tests): :meth:`DriveEmulator.open`, then :meth:`DriveEmulator.poll` handles
   every frame waiting on the buses and ticks the heartbeats at ``now`` (the emulator's clock,
   injectable), without any thread. :meth:`DriveEmulator.on_sync` runs one round directly.
@@ -41,9 +35,9 @@ injection). ``imotion-sim`` (:mod:`hal.emulator.main`) puts them on ``unix`` bus
 :func:`controller.model.jit.available`) the drives' hot values live in one
 :class:`~hal.emulator.bank.DriveBank`, the frames come in whole through
 :class:`~hal.emulator.inbox.Inbox` (RPDOs straight into the bank) and a bus's SYNC is one
-call for all its plain drives (:func:`hal.emulator.kernels.sync_drives`); the others, and
-every transition, fault and EMCY, take the drives' Python path, which is also the whole of
-the ``IMOTION_JIT=0`` emulator. Same frames either way (``tests/test_emulator_kernels.py``).
+call for all its plain drives (:mod:`hal.emulator.sync_round`); the others, and every
+transition, fault and EMCY, take the drives' Python path, which is also the whole of the
+``IMOTION_JIT=0`` emulator. Same frames either way (``tests/test_emulator_kernels.py``).
 
 Every public method takes the emulator's lock, so injections and the API are safe from other
 threads while the threads run.
@@ -53,8 +47,6 @@ from __future__ import annotations
 
 import itertools
 import logging
-import os
-import select
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -68,25 +60,20 @@ from controller.model import jit
 from controller.model.robot import Robot, load_robot
 from hal.can.drive_profile import DriveProfile, drives_path, eds_path, load_drive_profile
 from hal.can.unix_bus import INTERFACE as UNIX
-from hal.emulator import kernels
 from hal.emulator.bank import DriveBank
 from hal.emulator.drive import EmulatedDrive
 from hal.emulator.faults import ActiveFault, FaultableBus, FaultInjector
 from hal.emulator.inbox import Inbox
 from hal.emulator.plant import Plant
 from hal.emulator.port import Port
+from hal.emulator.sync_round import SyncRound
+from hal.emulator.threads import BusThreads
 
 log = logging.getLogger(__name__)
 
 #: The SYNC COB-ID of the predefined connection set (a drive's 0x1005 may name another).
 SYNC_COB_ID = 0x080
 _instances = itertools.count(1)
-#: Heartbeat tick period of the threads [s].
-TICK = 0.005
-#: A batch of frames that took longer than this [s] is logged (the emulator fell behind).
-SLOW_BATCH = 0.02
-#: Batches handled at most before the heartbeats are ticked (frames keep coming).
-CATCH_UP = 20
 
 
 def _stamp(frame: tuple[float, int, int, bytes]) -> float:
@@ -148,14 +135,12 @@ class DriveEmulator:
             self.drives[name] = drive
         self._order = list(self.drives.values())  # plant order = profile order
         self.plant = Plant(self.robot, self.profile, self.period, compiled=self.compiled)
-        self._setpoints = np.empty(len(self._order), dtype=np.int64)
-        self._torque = np.empty(len(self._order), dtype=bool)
-        self._now = np.zeros(1)  # [s] time.time() of a SYNC's TPDOs, and its wire bytes
-        self._now_bytes = self._now.view(np.uint8)
+        self._round = SyncRound(self._order, list(self._ports.values()), self.bank, self.plant,
+                                self.compiled)  # fmt: skip
         self._port_index = {name: k for k, name in enumerate(self._ports)}
         self._inbox: Inbox | None = None
         if self.compiled:
-            self._warm_up()
+            self._round.warm_up()
             self._inbox = Inbox(list(self._ports.values()), self.bank.ints, self._frame)
         self.plant.start()
         positions = self.plant.position_counts()
@@ -165,9 +150,7 @@ class DriveEmulator:
             self.drives, {n: d.bus for n, d in self.profile.drives.items()}, self._set_bus_off
         )
         self._master_buses: dict[str, list[FaultableBus]] = {n: [] for n in self._ports}
-        self._cycles = 0
-        self._threads: list[threading.Thread] = []
-        self._running = threading.Event()
+        self._service: BusThreads | None = None
         self._opened = False
         #: SCHED_FIFO priority of the threads (0: normal scheduling), set before start().
         self.priority = 0
@@ -185,7 +168,7 @@ class DriveEmulator:
     @property
     def cycles(self) -> int:
         """Physics steps (rounds) since start."""
-        return self._cycles
+        return self._round.cycles
 
     @property
     def sim_time(self) -> float:
@@ -254,34 +237,27 @@ class DriveEmulator:
         return wrapped
 
     def start(self) -> None:
-        """Open the buses if needed and run the threads (module doc)."""
+        """Open the buses if needed and run the threads (:mod:`hal.emulator.threads`) at
+        :attr:`priority`."""
         self.open()
-        if self._running.is_set():
+        if self._service is not None:
             return
-        self._running.set()
-        ports = list(self._ports.values())
-        if all(port.selectable() for port in ports):
-            self._threads.append(
-                threading.Thread(target=self._select_loop, args=(ports,), name="emu", daemon=True)
-            )
-        else:
-            for port in ports:
-                thread = threading.Thread(
-                    target=self._receive_loop, args=(port,), name=f"emu-{port.name}", daemon=True
-                )
-                self._threads.append(thread)
-            self._threads.append(
-                threading.Thread(target=self._tick_loop, name="emu-tick", daemon=True)
-            )
-        for thread in self._threads:
-            thread.start()
+        self._service = BusThreads(
+            list(self._ports.values()), self._lock, self._handle, self._process, self._tick,
+            self._clock, self.priority,
+        )  # fmt: skip
+        self._service.start()
 
     def stop(self) -> None:
         """Stop the threads (the buses stay open)."""
-        self._running.clear()
-        for thread in self._threads:
-            thread.join(timeout=2.0)
-        self._threads.clear()
+        service, self._service = self._service, None
+        if service is not None:
+            service.stop()
+
+    @property
+    def threads(self) -> list[threading.Thread]:
+        """The threads serving the buses while started (:mod:`hal.emulator.threads`)."""
+        return list(self._service.threads) if self._service is not None else []
 
     def close(self) -> None:
         """Stop and leave the buses (the master buses opened here too)."""
@@ -324,14 +300,14 @@ class DriveEmulator:
         """One round without frames: the physics steps one period, then every drive of
         ``buses`` (default: all) has its SYNC (latch, sample, TPDOs)."""
         with self._lock:
-            self._step()
+            self._round.step()
             for name in buses if buses is not None else self._ports:
                 port = self._ports[name]
                 if port.dirty:
                     port.rebuild()
                 if not port.bus_off:
                     everyone = list(range(len(port.drives)))
-                    self._sync(port, everyone, np.array(port.indices, dtype=np.int64))
+                    self._round.sync(port, everyone, np.array(port.indices, dtype=np.int64))
                     port.flush()
 
     # ----------------------------------------------------------------------- injection
@@ -366,7 +342,7 @@ class DriveEmulator:
         if group is not None or can_id == SYNC_COB_ID:
             if group is not None and not port.bus_off:
                 start = time.perf_counter()
-                self._sync(port, group, port.sync_slots[can_id])
+                self._round.sync(port, group, port.sync_slots[can_id])
                 port.flush()  # this bus's TPDOs now, in one record (a hold_pdos bus)
                 if self.record_sync_times:
                     self.sync_times.append(time.perf_counter() - start)
@@ -380,70 +356,6 @@ class DriveEmulator:
             now = self._clock()
             for handler in handlers:
                 handler(data, now)
-
-    def _sync(self, port: Port, group: list[int], slots: np.ndarray) -> None:
-        """SYNC on ``port`` for its drives ``group`` (positions on the bus; ``slots``: their
-        bank rows) (module doc: a new round steps first)."""
-        if port.synced:
-            self._step()
-        port.synced = True
-        drives = port.drives
-        sim_time = self.plant.sim_time
-        if not self.compiled:
-            for k in group:
-                drive = drives[k]
-                drive.latch()
-                drive.sample(sim_time)
-            return
-        bank, out, ends, slow = self.bank, port.out, port.ends, port.slow
-        self._now[0] = time.time()  # the frames' time stamp (its bytes: self._now_bytes)
-        left = kernels.sync_drives(bank.ints, bank.floats, slots, sim_time,
-                                   self._now_bytes, out, ends, slow)  # fmt: skip
-        if not left:
-            if len(group) and ends[len(group) - 1]:
-                port.send_frames(out[: ends[len(group) - 1]].tobytes())
-            return
-        start = 0
-        for j, k in enumerate(group):  # a drive left to Python between plain ones: in order
-            if slow[j]:
-                drive = drives[k]
-                drive.latch()
-                drive.sample(sim_time)
-            elif ends[j] > start:
-                port.send_frames(out[start : ends[j]].tobytes())
-            start = int(ends[j])
-
-    def _step(self) -> None:
-        """The physics of one period with every drive's latched set-point; new actuals."""
-        setpoints, torque = self._setpoints, self._torque
-        if self.compiled:
-            kernels.setpoints(self.bank.ints, setpoints, torque)
-            self.plant.step(setpoints, torque)
-            kernels.move(self.bank.ints, self.plant.position_counts(),
-                         self.plant.velocity_counts())  # fmt: skip
-        else:
-            order = self._order
-            for i, drive in enumerate(order):
-                setpoints[i], torque[i] = drive.setpoint()
-            self.plant.step(setpoints, torque)
-            positions = self.plant.position_counts().tolist()
-            velocities = self.plant.velocity_counts().tolist()
-            for drive, position, velocity in zip(order, positions, velocities, strict=True):
-                drive.move(position, velocity)
-        for port in self._ports.values():
-            port.synced = False
-        self._cycles += 1
-
-    def _warm_up(self) -> None:
-        """Compile (or load) the kernels now, on a scratch bank, not in the first round."""
-        scratch = DriveBank(1)
-        slots = np.zeros(1, dtype=np.int64)
-        out = np.zeros(kernels.DRIVE_BYTES, dtype=np.uint8)
-        ends = np.zeros(1, dtype=np.int64)
-        kernels.sync_drives(scratch.ints, scratch.floats, slots, 0.0, self._now_bytes, out, ends,
-                            np.zeros(1, dtype=bool))  # fmt: skip
-        kernels.setpoints(scratch.ints, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=bool))
-        kernels.move(scratch.ints, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
 
     def _tick(self, now: float) -> None:
         for drive in self._order:
@@ -470,70 +382,6 @@ class DriveEmulator:
                     log.warning("bus %s: shutdown failed: %s", port.name, exc)
                 port.attach(None)
 
-    def _receive_loop(self, port: Port) -> None:
-        self._realtime()
-        while self._running.is_set():
-            bus = port.bus
-            if bus is None:
-                return
-            try:
-                msg = bus.recv(0.05)
-            except Exception as exc:
-                log.error("bus %s: receive failed, the emulator leaves it: %s", port.name, exc)
-                return
-            if msg is None:
-                continue
-            with self._lock:
-                try:
-                    self._process(port, msg)
-                except Exception:  # one bad frame must not end the bus
-                    log.exception("bus %s: frame 0x%03X failed", port.name, msg.arbitration_id)
-
-    def _select_loop(self, ports: list[Port]) -> None:
-        """All buses in one thread: wait on their descriptors, then handle every frame waiting
-        on any bus in the order they were sent; tick the heartbeats every :data:`TICK` [s]."""
-        fds = {port.bus.fileno(): port for port in ports if port.bus is not None}
-        descriptors = list(fds)
-        self._realtime()
-        next_tick = 0.0
-        while self._running.is_set():
-            try:
-                ready, _, _ = select.select(descriptors, [], [], TICK)
-            except (OSError, ValueError) as exc:
-                if self._running.is_set():
-                    log.error("emulator: select failed, the emulator stops: %s", exc)
-                return
-            with self._lock:
-                start = time.monotonic()
-                handled = 0
-                for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
-                    handled += self._handle([fds[fd] for fd in ready])  # the ticks below
-                    if self._clock() >= next_tick + TICK:  # see every heartbeat; ticks due
-                        break
-                    try:  # the buses that got more meanwhile (one system call for all)
-                        ready, _, _ = select.select(descriptors, [], [], 0.0)
-                    except (OSError, ValueError):
-                        break  # the next wait says why
-                    if not ready:
-                        break
-                took = time.monotonic() - start
-                if took > SLOW_BATCH:
-                    log.warning("emulator: %.0f ms to handle %d frames (host busy?)",
-                                took * 1e3, handled)  # fmt: skip
-                now = self._clock()
-                if now >= next_tick:
-                    self._tick(now)
-                    next_tick = now + TICK
-
-    def _realtime(self) -> None:
-        """The calling thread under SCHED_FIFO at :attr:`priority` (if set)."""
-        if not self.priority:
-            return
-        try:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.priority))
-        except (AttributeError, OSError) as exc:
-            log.warning("emulator: SCHED_FIFO priority %d not in effect: %s", self.priority, exc)
-
     def _handle(self, ports: list[Port]) -> int:
         """Every frame waiting on ``ports``, in the order they were sent (their timestamps):
         a SYNC round is then seen as the master sent it, however the buses were read."""
@@ -552,10 +400,3 @@ class DriveEmulator:
             except Exception:  # one bad frame must not end the bus
                 log.exception("bus %s: frame 0x%03X failed", ports[k].name, can_id)
         return len(frames)
-
-    def _tick_loop(self) -> None:
-        self._realtime()
-        while self._running.is_set():
-            with self._lock:
-                self._tick(self._clock())
-            time.sleep(TICK)

@@ -13,9 +13,9 @@ per TPDO) as calls on the emulator's :class:`hal.emulator.bank.DriveBank`:
   position, velocity). Every other drive is flagged and the caller runs the Python path
   for it (the state machine's transitions, EMCYs, faults, logs): same frames, same order.
 * :func:`setpoints` / :func:`move`: what the power stages do before a physics step, and the
-  new actual values after it, for every drive.
-* :func:`plant_command`: the plant's servo references, feed-forward and joint commands
-  from the set-points (:meth:`hal.emulator.plant.Plant.step`).
+  new actual values after it (the plant's SI values to counts), for every drive.
+
+The plant's own arithmetic is :mod:`hal.emulator.plant_kernels`.
 
 Plain Python functions on NumPy arrays, compiled with :func:`controller.model.jit.jit`; the
 emulator uses them where :func:`controller.model.jit.available` (not with
@@ -267,61 +267,19 @@ def setpoints(ints: np.ndarray, setpoint: np.ndarray, torque: np.ndarray) -> Non
 
 
 @jit.jit
-def move(ints: np.ndarray, position: np.ndarray, velocity: np.ndarray) -> None:
-    """Every drive's :meth:`EmulatedDrive.move`: ``position`` [counts] wrapped to 32 bits,
-    ``velocity`` [counts/s] clamped."""
-    for s in range(ints.shape[0]):
-        ints[s, _ACTUAL] = (position[s] - I32_MIN) % _SPAN + I32_MIN
-        ints[s, _VELOCITY] = min(max(velocity[s], I32_MIN), I32_MAX)
-
-
-@jit.jit
-def plant_command(
-    raw: np.ndarray,
-    torque: np.ndarray,
-    last_raw: np.ndarray,
-    target: np.ndarray,
-    started: np.ndarray,
-    offset: np.ndarray,
-    factor: np.ndarray,
-    ref: np.ndarray,
-    ref_prev: np.ndarray,
-    torque_prev: np.ndarray,
-    period: float,
-    joint_idx: np.ndarray,
-    pull: np.ndarray,
-    measured: np.ndarray,
+def move(
+    ints: np.ndarray,
     position: np.ndarray,
     velocity: np.ndarray,
-    mask: np.ndarray,
+    factor: np.ndarray,
+    offset: np.ndarray,
 ) -> None:
-    """:meth:`hal.emulator.plant.Plant.step` before the vehicle and MuJoCo: set-points
-    ``raw`` [counts] (wrapped or not) unwrapped into ``target``, servo references ``ref``
-    [rad, m] (``ref_prev`` := them after use), the velocity feed-forward where the drive had
-    ``torque`` before too (``torque_prev`` := ``torque``), and per joint ``joint_idx[k]``
-    the command ``position[k]`` (pulled from at most ``pull[k]`` away from ``measured``),
-    ``velocity[k]`` and servo ``mask[k]``; ``velocity`` beyond the joints := 0."""
-    n = raw.shape[0]
-    half = 2**31
-    for i in range(n):
-        delta = (raw[i] - last_raw[i] + half) % _SPAN - half
-        target[i] = target[i] + delta if started[i] else raw[i]
-        started[i] = True
-        last_raw[i] = raw[i]
-    for k in range(velocity.shape[0]):
-        velocity[k] = 0.0
-    for k in range(joint_idx.shape[0]):
-        i = joint_idx[k]
-        value = (float(target[i]) - offset[i]) / factor[i]
-        feed = (value - ref_prev[i]) / period if torque[i] and torque_prev[i] else 0.0
-        here = measured[i]
-        if torque[i]:
-            position[k] = here + min(max(value - here, -pull[k]), pull[k])
-        else:
-            position[k] = here
-        velocity[k] = feed
-        mask[k] = torque[i]
-    for i in range(n):
-        ref[i] = (float(target[i]) - offset[i]) / factor[i]
-        ref_prev[i] = ref[i]
-        torque_prev[i] = torque[i]
+    """Every drive's :meth:`EmulatedDrive.move` from the plant's measured ``position``
+    [rad, m] and ``velocity`` [rad/s, m/s] with the drives' scaling (``factor`` [counts per
+    SI unit], ``offset`` [counts]) as :meth:`hal.can.scaling.ScalingArray.to_counts` rounds
+    them: position [counts] wrapped to 32 bits, velocity [counts/s] clamped."""
+    for s in range(ints.shape[0]):
+        counts = np.int64(np.rint(position[s] * factor[s] + offset[s]))
+        speed = np.int64(np.rint(velocity[s] * factor[s]))
+        ints[s, _ACTUAL] = (counts - I32_MIN) % _SPAN + I32_MIN
+        ints[s, _VELOCITY] = min(max(speed, I32_MIN), I32_MAX)

@@ -18,6 +18,13 @@ emulator share one set of wheel kinematics:
   base is off as soon as one wheel drive is);
 * measured base pose -> actual wheel angles: the command rule applied to the *measured* pose
   (``command``); wheel speeds are ``J · body twist``.
+
+**Compiled** (``compiled``, where numba is): the arithmetic of a step, both vehicle rules
+included, is three calls of :mod:`hal.emulator.plant_kernels` on the plant's and the
+mappings' own arrays (the mappings' state is the same either way; only a base coming on
+starts its odometry in Python), and the servo mask is compared with the last one set
+without NumPy; the NumPy path (``IMOTION_JIT=0``) is the reference they are tested against
+(``tests/test_emulator_kernels.py``: every step's state to 1e-12, the counts exactly).
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ from controller.model.robot import Robot
 from hal.can.drive_profile import DriveProfile
 from hal.can.scaling import ScalingArray
 from hal.can.vehicle import VehicleMapping
-from hal.emulator import kernels
+from hal.emulator import plant_kernels as kernels
 from hal.interface import HardwareState, JointCommand
 from hal.mujoco_backend import MujocoBackend
 
@@ -44,8 +51,8 @@ _HALF = 2**31
 class Plant:
     """Simulated joints of ``robot`` for the drives of ``profile`` (in profile order).
 
-    ``compiled``: :meth:`step`'s arithmetic in one compiled call
-    (:func:`hal.emulator.kernels.plant_command`), else NumPy.
+    ``compiled``: :meth:`step`'s arithmetic, the vehicle mapping's included, in compiled
+    calls (:mod:`hal.emulator.plant_kernels`), else NumPy.
     """
 
     def __init__(self, robot: Robot, profile: DriveProfile, period: float, compiled: bool = False):
@@ -61,14 +68,19 @@ class Plant:
         vehicle: tuple[str, ...] = ()
         self._mapping_cmd: VehicleMapping | None = None
         self._mapping_act: VehicleMapping | None = None
+        cmd = act = VehicleMapping.empty()  # the compiled kernels' arrays without a base
         if wheels:
             if robot.profile.vehicle is None:
                 raise ValueError(f"{robot.id}: drives.yaml names wheels but there is no vehicle")
             vehicle = robot.unit_joints("VEHICLE")
             if len(vehicle) != 3:
                 raise ValueError(f"{robot.id}: the VEHICLE unit needs x, y and θ joints")
-            self._mapping_cmd = VehicleMapping(robot.profile.vehicle.wheels)
-            self._mapping_act = VehicleMapping(robot.profile.vehicle.wheels)
+            self._mapping_cmd = cmd = VehicleMapping(robot.profile.vehicle.wheels)
+            self._mapping_act = act = VehicleMapping(robot.profile.vehicle.wheels)
+        # The mappings' own arrays, which the compiled kernels update in place.
+        self._odometry = (cmd.measured_wheels, np.ascontiguousarray(cmd.inverse), cmd.pose,
+                          cmd.velocity)  # fmt: skip
+        self._wheel_rule = (np.ascontiguousarray(act.matrix), act.command_pose, act.wheel_targets)
         self.backend = MujocoBackend(robot, self.period, joint_names=joints + vehicle)
         self._nj = len(joints)
         self._pull = np.array(
@@ -82,8 +94,10 @@ class Plant:
         self._ref = np.zeros(n)  # servo references [rad]/[m]
         self._ref_prev = np.zeros(n)
         self._torque_prev = np.zeros(n, dtype=bool)
-        self._vehicle_on = False
+        self._vehicle_on = np.zeros(1, dtype=bool)
         self._mask = np.zeros(self._nj + len(vehicle), dtype=bool)
+        self._mask_set = self._mask.copy()  # the backend's servo mask (compiled path)
+        self._measured_pose = np.zeros(3)  # the base's, as of the last step [m, m, rad]
         self._position = np.zeros(n)  # measured [rad]/[m] (wheels: wheel angle)
         self._velocity = np.zeros(n)
         self._wheel_angle = np.zeros(len(wheels))
@@ -99,23 +113,32 @@ class Plant:
         backend.configure()
         backend.activate()
         backend.set_servo_mask(self._mask)
+        if self.compiled:  # compile (or load) the kernels now, not in the first SYNC round
+            self._warm_up()
         self._measure()
         if self._mapping_act is not None:
+            self._wheel_angle[:] = self._position[self._wheel_idx]
             self._mapping_act.start(self._wheel_angle, pose=self._pose())
-        if self.compiled:  # compile (or load) the kernel now, not in the first SYNC round
-            n = self._target.size
-            kernels.plant_command(
-                np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64),
-                np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), self._scaling.offset,
-                self._scaling.factor, np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool),
-                self.period, self._joint_idx, self._pull, np.zeros(n), np.zeros(self._mask.size),
-                np.zeros(self._mask.size), np.zeros(self._mask.size, dtype=bool),
-            )  # fmt: skip
 
     @property
     def sim_time(self) -> float:
         """Simulated time [s] (the backend's, as of the last step)."""
         return self._sim_time
+
+    @property
+    def position(self) -> np.ndarray:
+        """Measured positions [rad, m] (wheels: wheel angle), drive order; updated in place."""
+        return self._position
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Measured velocities [rad/s, m/s], drive order; updated in place."""
+        return self._velocity
+
+    @property
+    def scaling(self) -> ScalingArray:
+        """The drives' scaling (counts <-> SI), drive order."""
+        return self._scaling
 
     def position_counts(self) -> np.ndarray:
         """Measured positions [counts] (int64, not wrapped), drive order."""
@@ -173,12 +196,17 @@ class Plant:
         """The period's commands to MuJoCo: the vehicle's part, the servo mask (set only when
         it changes: setting the same one again changes nothing), one write, a diverged
         simulation put back at its initial pose; then the measured values."""
-        if self._mapping_cmd is not None:
-            self._vehicle_step(torque, position, velocity)
         backend = self.backend
-        if not np.array_equal(self._mask, backend.servo_mask):
+        if self.compiled:
+            changed = self._vehicle_compiled(torque, position, velocity)
+        else:
+            if self._mapping_cmd is not None:
+                self._vehicle_step(torque, position, velocity)
+            changed = not np.array_equal(self._mask, backend.servo_mask)
+        if changed:
             backend.set_servo_mask(self._mask)
         backend.write(JointCommand(position=position, velocity=velocity))
+        backend.advance()  # the period's physics now (a SYNC's answer needs it), then check
         if backend.state is HardwareState.FAULT:  # diverged: reset to the initial pose
             backend.reset_faults()
             backend.activate()
@@ -191,7 +219,7 @@ class Plant:
         wi, nj = self._wheel_idx, self._nj
         on = bool(torque[wi].all())
         wheel_ref = self._ref[wi]
-        if on and not self._vehicle_on:
+        if on and not self._vehicle_on[0]:
             cmd.start(wheel_ref, pose=self._pose())
         if on:
             previous = cmd.pose.copy()
@@ -201,7 +229,24 @@ class Plant:
         else:
             position[nj:] = self._pose()
         self._mask[nj:] = on
-        self._vehicle_on = on
+        self._vehicle_on[0] = on
+
+    def _vehicle_compiled(
+        self, torque: np.ndarray, position: np.ndarray, velocity: np.ndarray
+    ) -> bool:
+        """:meth:`_vehicle_step` (an odometry started in Python when the base comes on) and
+        whether the servo mask changed, compiled."""
+        last, inverse, pose, twist = self._odometry
+        args = (torque, self._wheel_idx, self._ref, last, inverse, pose, twist, self.period,
+                self._measured_pose, position, velocity, self._mask, self._mask_set,
+                self._vehicle_on)  # fmt: skip
+        flags = kernels.vehicle_command(*args)
+        if flags == kernels.START_VEHICLE:
+            assert self._mapping_cmd is not None
+            self._mapping_cmd.start(self._ref[self._wheel_idx], pose=self._measured_pose)
+            self._vehicle_on[0] = True
+            flags = kernels.vehicle_command(*args)
+        return bool(flags & kernels.MASK_CHANGED)
 
     # --------------------------------------------------------------------------- helpers
 
@@ -212,6 +257,13 @@ class Plant:
     def _measure(self) -> None:
         state = self.backend.read()
         self._sim_time = state.stamp
+        if self.compiled:
+            matrix, command_pose, wheel_targets = self._wheel_rule
+            kernels.plant_measure(
+                state.position, state.velocity, self._joint_idx, self._wheel_idx, matrix,
+                command_pose, wheel_targets, self._position, self._velocity, self._measured_pose,
+            )  # fmt: skip
+            return
         nj = self._nj
         self._position[self._joint_idx] = state.position[:nj]
         self._velocity[self._joint_idx] = state.velocity[:nj]
@@ -225,3 +277,28 @@ class Plant:
         body = np.array((c * vx + s * vy, -s * vx + c * vy, w))
         self._position[self._wheel_idx] = self._wheel_angle
         self._velocity[self._wheel_idx] = act.matrix @ body
+
+    def _warm_up(self) -> None:
+        """Compile (or load) the kernels on scratch copies of the plant's arrays (the same
+        types and layouts as in a step; nothing of the plant changes)."""
+        n, m = self._target.size, self._mask.size
+        scratch = np.copy
+        kernels.plant_command(
+            np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64),
+            np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool), self._scaling.offset,
+            self._scaling.factor, np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool),
+            self.period, self._joint_idx, self._pull, np.zeros(n), np.zeros(m), np.zeros(m),
+            np.zeros(m, dtype=bool),
+        )  # fmt: skip
+        last, inverse, pose, twist = (scratch(a) for a in self._odometry)
+        kernels.vehicle_command(
+            np.zeros(n, dtype=bool), self._wheel_idx, np.zeros(n), last, inverse, pose, twist,
+            self.period, np.zeros(3), np.zeros(m), np.zeros(m), np.zeros(m, dtype=bool),
+            np.zeros(m, dtype=bool), np.zeros(1, dtype=bool),
+        )  # fmt: skip
+        state = self.backend.read()
+        matrix, command_pose, wheel_targets = (scratch(a) for a in self._wheel_rule)
+        kernels.plant_measure(
+            scratch(state.position), scratch(state.velocity), self._joint_idx, self._wheel_idx,
+            matrix, command_pose, wheel_targets, np.zeros(n), np.zeros(n), np.zeros(3),
+        )  # fmt: skip

@@ -4,7 +4,7 @@ Frames in are routed by COB-ID to the drives' handlers (:meth:`Port.rebuild` aft
 routes changed: PDO mapping, SYNC COB-ID, heartbeat consumer). Frames out go through
 :meth:`Port.send`, which counts and logs send errors without raising (a drive keeps running
 while its bus is unwell). ``synced`` says whether this bus had its SYNC since the last
-physics step: the next one starts a new round (:mod:`hal.emulator.emulator`).
+physics step: the next one starts a new round (:mod:`hal.emulator.sync_round`).
 """
 
 from __future__ import annotations

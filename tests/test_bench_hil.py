@@ -1,0 +1,49 @@
+"""tools/bench_hil.py: one loop for the warm-up and the measured run, and the machine's
+floor read beside the run's overruns (issue 13)."""
+
+from __future__ import annotations
+
+from tests.support import run_tool
+
+SHORT = ("--robot", "pa10", "--seconds", "0.5", "--no-realtime", "--planner", "thread")
+
+
+def test_the_measured_run_continues_the_warm_up_loop_and_the_floor_follows_it():
+    lines, result = run_tool("bench_hil.py", *SHORT, "--rate", "250", "--floor-seconds", "0.3")
+    out = "\n".join(lines)
+    assert result["cycles"] == 125 and result["warmup_overruns"] >= 0
+    # No pause between the warm-up and the measured run (a second loop started after the
+    # warm-up made its first step pay for the pause): the first measured deadline is a
+    # whole number of periods after the warm-up's last one, on the same loop's grid.
+    seam = result["warmup_seam_periods"]
+    assert seam >= 1 and seam == round(seam)
+    assert "the measured run continues its loop" in out
+    floor = result["machine_floor"]
+    assert floor["seconds"] == 0.3 and floor["emulator"] is None  # the emulator not FIFO
+    assert floor["threshold_us"] == round(1e6 / 250 - result["compute_us_p50"], 1)
+    assert floor["loop"]["priority"] == 80
+    assert floor["loop"]["threshold_us"] == floor["threshold_us"]
+    assert result["floor_late"] == floor["loop"]["late_past_threshold"] >= 0
+    assert result["floor_late_emulator"] is None
+    assert "the machine's floor for 0.3 s after it" in out
+
+
+def test_each_rate_gets_its_floor_with_a_second_thread_at_the_emulator_priority():
+    lines, result = run_tool(
+        "bench_hil.py", *SHORT, "--rates", "250,200", "--emulator-priority", "70",
+        "--floor-seconds", "0.2",
+    )  # fmt: skip
+    out = "\n".join(lines)
+    assert [r["rate_hz"] for r in result["runs"]] == [250.0, 200.0]
+    for run in result["runs"]:
+        floor = run["machine_floor"]
+        assert floor["threshold_us"] == round(1e6 / run["rate_hz"] - run["compute_us_p50"], 1)
+        assert floor["emulator"]["priority"] == 70 and floor["loop"]["priority"] == 80
+        assert run["floor_late_emulator"] == floor["emulator"]["late_past_threshold"] >= 0
+        assert run["floor_late"] == floor["loop"]["late_past_threshold"] >= 0
+    assert "machine floor's late wakes (FIFO 80 / 70)" in out
+
+
+def test_no_floor_when_told():
+    _, result = run_tool("bench_hil.py", *SHORT, "--rate", "250", "--floor-seconds", "0")
+    assert "machine_floor" not in result and "floor_late" not in result
