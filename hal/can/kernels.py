@@ -109,19 +109,7 @@ def feedback(
     if vehicle[1] == 0:
         return START_VEHICLE
     w = wheel_idx.shape[0]
-    d0 = d1 = d2 = 0.0
-    for k in range(w):
-        change = pos[wheel_idx[k]] - last[k]
-        d0 += inverse[0, k] * change
-        d1 += inverse[1, k] * change
-        d2 += inverse[2, k] * change
-    for k in range(w):
-        last[k] = pos[wheel_idx[k]]
-    heading = pose[2] + 0.5 * d2
-    c, s = math.cos(heading), math.sin(heading)
-    pose[0] += c * d0 - s * d1
-    pose[1] += s * d0 + c * d1
-    pose[2] += d2
+    d0, d1, d2 = odometry_step(pos, wheel_idx, last, inverse, pose)
     if vehicle[2]:
         t0 = t1 = t2 = 0.0
         for k in range(w):
@@ -139,6 +127,35 @@ def feedback(
         position[vehicle_joints[k]] = pose[k]
         velocity[vehicle_joints[k]] = twist[k]
     return 0
+
+
+@jit.jit
+def odometry_step(
+    values: np.ndarray,
+    wheel_idx: np.ndarray,
+    last: np.ndarray,
+    inverse: np.ndarray,
+    pose: np.ndarray,
+) -> tuple[float, float, float]:
+    """:meth:`hal.can.vehicle.VehicleMapping.measure`'s integration: the body's
+    displacement (x, y [m], θ [rad], body axes) from the wheels' change since ``last`` [rad]
+    (the wheels' angles ``values[wheel_idx]``; ``last`` := them), through ``inverse``, and
+    ``pose`` (x, y [m], θ [rad]) advanced along it at the midpoint heading. Returns the
+    displacement (the master's measured wheels and the emulator's wheel references both)."""
+    d0 = d1 = d2 = 0.0
+    for k in range(wheel_idx.shape[0]):
+        change = values[wheel_idx[k]] - last[k]
+        d0 += inverse[0, k] * change
+        d1 += inverse[1, k] * change
+        d2 += inverse[2, k] * change
+    for k in range(wheel_idx.shape[0]):
+        last[k] = values[wheel_idx[k]]
+    heading = pose[2] + 0.5 * d2
+    c, s = math.cos(heading), math.sin(heading)
+    pose[0] += c * d0 - s * d1
+    pose[1] += s * d0 + c * d1
+    pose[2] += d2
+    return d0, d1, d2
 
 
 @jit.jit

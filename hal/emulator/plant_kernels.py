@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from controller.model import jit
+from hal.can.kernels import odometry_step
 
 _SPAN = 2**32
 #: :func:`vehicle_command`'s result bits: every wheel drive has torque and the odometry has
@@ -122,19 +123,7 @@ def vehicle_command(
             return START_VEHICLE
         if on:
             p0, p1, p2 = pose[0], pose[1], pose[2]
-            d0 = d1 = d2 = 0.0
-            for k in range(w):
-                change = ref[wheel_idx[k]] - last[k]
-                d0 += inverse[0, k] * change
-                d1 += inverse[1, k] * change
-                d2 += inverse[2, k] * change
-            for k in range(w):
-                last[k] = ref[wheel_idx[k]]
-            heading = pose[2] + 0.5 * d2
-            c, s = math.cos(heading), math.sin(heading)
-            pose[0] += c * d0 - s * d1
-            pose[1] += s * d0 + c * d1
-            pose[2] += d2
+            d0, d1, d2 = odometry_step(ref, wheel_idx, last, inverse, pose)
             t0, t1, t2 = d0 / period, d1 / period, d2 / period
             c, s = math.cos(pose[2]), math.sin(pose[2])
             twist[0] = c * t0 - s * t1
