@@ -50,8 +50,9 @@ def kernel_sources_digest(root: Path = _ROOT) -> bytes:
     return digest.digest()
 
 
-#: :func:`kernel_sources_digest` of the sources this process runs.
-KERNEL_SOURCES = kernel_sources_digest()
+#: :func:`kernel_sources_digest` of the sources this process runs (read only where numba
+#: is: nothing is cached without it).
+KERNEL_SOURCES = kernel_sources_digest() if numba is not None else b""
 
 
 def _stamp_with_kernel_sources(locator: Any, stamp: Any) -> Any:

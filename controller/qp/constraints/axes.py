@@ -165,9 +165,10 @@ class AxisLimit:
         n = self.max_rows
         if not n:
             return 0
-        self._fill(kin, C, self._value)
+        value = self._value  # each row's axis now
+        self._fill(kin, C, value)
         if self._compiled:
-            value, kind = self._value, self._kind
+            kind = self._kind
             for k, side in self._held_elbows:  # nearly stretched: no elbow angle to hold
                 stretched = kin.elbow_offset(side) < HOLD_MIN_ELBOW_OFFSET
                 kind[k] = axes_kernel.FREE if stretched else axes_kernel.HELD
@@ -182,14 +183,14 @@ class AxisLimit:
         box = lb is not None and ub is not None
         if lb is not None and ub is not None:
             reach_lo, reach_hi = _reachable(C[:n], lb, ub, self._pos, self._neg)
-        for k, axis, hold, elbow_side in self._held:
+        for k, _, hold, elbow_side in self._held:
             if elbow_side is not None:
                 if kin.elbow_offset(elbow_side) < HOLD_MIN_ELBOW_OFFSET:
                     lo[k], hi[k] = -INF, INF  # nearly stretched: no elbow angle to hold
                     continue
-                err = math.remainder(hold - kin.elbow_angle(elbow_side), math.tau)
+                err = math.remainder(hold - value[k], math.tau)
             else:
-                err = hold - axis_value(kin, axis)
+                err = hold - value[k]
             rate = HOLD_FRACTION * err / dt
             if box:
                 rate = min(max(rate, reach_lo[k]), reach_hi[k])
@@ -197,8 +198,8 @@ class AxisLimit:
         if self._ranged:
             # Half the deceleration the axis's best joint gives it, per row.
             brake_all = BRAKING_SHARE * np.max(np.abs(C[:n]) * self._a_max, axis=1)
-        for k, axis, rmin, rmax in self._ranged:
-            x = axis_value(kin, axis)
+        for k, _, rmin, rmax in self._ranged:
+            x = float(value[k])
             brake = float(brake_all[k])
             low, high = axes_kernel.range_band(x, rmin, rmax, brake, dt, HOLD_FRACTION)
             if box:
