@@ -383,3 +383,37 @@ def test_average_twist_in_closed_form_is_the_chord_between_two_poses(
     s1 = s0 + ds
     expected = chord_twist(path.at(s0), path.at(s1), dt)
     np.testing.assert_allclose(path.average_twist(s0, s1, dt), expected, rtol=0, atol=1e-9 / dt)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(-1.0, 1.0), min_size=6, max_size=6),
+    st.floats(-0.1, 1.1),
+    st.floats(0.0, 0.05),
+    st.floats(1e-4, 0.01),
+    st.sampled_from(["line compiled", "line numpy", "arc"]),
+)
+def test_follow_writes_the_pose_at_s0_and_the_average_twist_in_place(
+    v: list[float], s0: float, ds: float, dt: float, kind: str
+):
+    """``follow`` gives what ``at`` and ``average_twist`` give (s outside [0, 1] clamped), into
+    the caller's buffers, on both paths and both forms of the line."""
+    start = pin.SE3(pin.exp3(np.array(v[3:]) * 2.0), np.array([0.3, -0.2, 0.8]))
+    end = pin.SE3(
+        pin.exp3(np.array(v[:3]) * 2.0), np.array([0.5, 0.1, 0.9]) + 0.1 * np.array(v[3:])
+    )
+    if kind == "arc":
+        via = pin.SE3(start.rotation, np.array([0.45, -0.15, 1.1]))
+        path: LinePath | ArcPath = ArcPath(start, via, end)
+    else:
+        path = LinePath(start, end)
+        path._compiled = kind == "line compiled"
+    s1 = s0 + ds
+    rotation, position, twist = np.full((3, 3), np.nan), np.full(3, np.nan), np.full(6, np.nan)
+    keep = (rotation, position, twist)
+    path.follow(s0, s1, dt, rotation, position, twist)
+    assert all(a is b for a, b in zip(keep, (rotation, position, twist), strict=True))
+    pose = path.at(s0)
+    np.testing.assert_allclose(rotation, pose.rotation, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(position, pose.translation, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(twist, path.average_twist(s0, s1, dt), rtol=0, atol=1e-12)

@@ -105,3 +105,33 @@ def test_control_point_rows_are_the_same_compiled_and_through_pinocchio(
         monkeypatch.setattr(tasks, "_COMPILED", True)
         task.compute_into(kin, None, rate)  # no rows to write: the rate alone
         np.testing.assert_array_equal(rate, out[0][1])
+
+
+def test_a_control_point_task_keeps_its_own_target_and_twist() -> None:
+    """``set_target`` copies: the caller's pose and twist may change afterwards; the buffers
+    a path writes in place are the ones the rows read."""
+    from controller.vocabulary import RightLeft
+    from tests.support import kinematics
+
+    kin = kinematics("smartpal5")
+    kin.update(kin.home())
+    side = RightLeft.RIGHT
+    first = pin.SE3.Random()
+    task = tasks.ControlPointTask(side, first)
+    pose, twist = pin.SE3.Random(), np.arange(6.0)
+    task.set_target(pose, twist)
+    pose.translation[:] = 0.0
+    twist[:] = -1.0
+    assert np.array_equal(task.twist, np.arange(6.0))
+    assert not np.array_equal(task.target.translation, np.zeros(3))
+    rotation, translation, feed = task.target_buffers
+    goal = pin.SE3.Random()
+    rotation[...], translation[...], feed[...] = goal.rotation, goal.translation, 0.5
+    assert np.array_equal(task.target.homogeneous, goal.homogeneous)
+    rate = np.zeros(6)
+    task.compute_into(kin, None, rate)
+    expected = tasks.pose_error(goal, kin.pose(side)) * task.gain + 0.5
+    np.testing.assert_allclose(rate, expected, rtol=0, atol=1e-12)
+    task.set_target(first)
+    assert np.array_equal(task.twist, np.zeros(6))
+    assert np.array_equal(task.target.homogeneous, first.homogeneous)

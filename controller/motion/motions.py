@@ -353,8 +353,9 @@ class CartesianMotion(Motion):
         return IKSetup(tasks, frozen, allowed, self.ranges)
 
     def apply(self, s0: float, s1: float, dt: float) -> None:
-        # One pose per cycle; the feed-forward toward s1 in the path's closed form.
-        self.task.set_target(self.path.at(s0), self.path.average_twist(s0, s1, dt))
+        # The pose at s0 and the feed-forward toward s1 (the path's closed form), written
+        # into the task's target in place.
+        self.path.follow(s0, s1, dt, *self.task.target_buffers)
         if self.elbow is not None and self.elbow_path is not None:
             e0, e1 = float(self.elbow_path.at(s0)[0]), float(self.elbow_path.at(s1)[0])
             self.elbow.set_target(e0, (e1 - e0) / dt)

@@ -116,6 +116,25 @@ class LinePath:
         the relative rotation (equal to it while the step turns less than π)."""
         return self._twist_per_s * ((unit_clamp(s1) - unit_clamp(s0)) / dt)
 
+    def follow(
+        self, s0: float, s1: float, dt: float, rotation: np.ndarray, position: np.ndarray,
+        twist: np.ndarray,
+    ) -> None:  # fmt: skip
+        """A control point's target on the line, in place: the pose at ``s0`` into
+        ``rotation`` (3x3) and ``position`` [m], the average twist toward ``s1`` in ``dt`` [s]
+        into ``twist`` [m/s, rad/s] (what :meth:`at` and :meth:`average_twist` give, with no
+        pose or array built: every cycle of a Cartesian move)."""
+        s0, s1 = unit_clamp(s0), unit_clamp(s1)
+        if self._compiled:
+            _line_follow(
+                self._r0, self._p0, self.omega, self.dp, self._twist_per_s, s0, s1, dt,
+                rotation, position, twist,
+            )  # fmt: skip
+            return
+        rotation[...] = self._r0 @ pin.exp3(s0 * self.omega)
+        np.add(self._p0, s0 * self.dp, out=position)
+        np.multiply(self._twist_per_s, (s1 - s0) / dt, out=twist)
+
     def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
         """(ṡ_max, s̈_max) from (translation, rotation) speed and acceleration limits."""
         v = min(_ratio(speed[0], self.length), _ratio(speed[1], self.angle))
@@ -163,6 +182,27 @@ def _line_pose(
         for j in range(3):
             rotation[i, j] = r0[i, 0] * e[0, j] + r0[i, 1] * e[1, j] + r0[i, 2] * e[2, j]
         position[i] = p0[i] + s * dp[i]
+
+
+@jit.jit
+def _line_follow(
+    r0: np.ndarray,
+    p0: np.ndarray,
+    omega: np.ndarray,
+    dp: np.ndarray,
+    twist_per_s: np.ndarray,
+    s0: float,
+    s1: float,
+    dt: float,
+    rotation: np.ndarray,
+    position: np.ndarray,
+    twist: np.ndarray,
+) -> None:
+    """:meth:`LinePath.follow` compiled (``s0``, ``s1`` already in [0, 1])."""
+    _line_pose(r0, p0, omega, dp, s0, rotation, position)
+    rate = (s1 - s0) / dt
+    for i in range(6):
+        twist[i] = twist_per_s[i] * rate
 
 
 class ArcPath:
@@ -218,6 +258,17 @@ class ArcPath:
         out[:3] = (self._position(s1) - self._position(s0)) / dt
         return out
 
+    def follow(
+        self, s0: float, s1: float, dt: float, rotation: np.ndarray, position: np.ndarray,
+        twist: np.ndarray,
+    ) -> None:  # fmt: skip
+        """As :meth:`LinePath.follow`: the pose at ``s0`` and the average twist toward
+        ``s1`` in ``dt`` [s], into the given buffers."""
+        pose = self.at(s0)
+        rotation[...] = pose.rotation
+        position[...] = pose.translation
+        twist[...] = self.average_twist(s0, s1, dt)
+
     def _position(self, s: float) -> np.ndarray:
         phi = unit_clamp(s) * self.sweep
         return self.centre + self.radius * (math.cos(phi) * self._e1 + math.sin(phi) * self._e2)
@@ -246,3 +297,7 @@ class ArcPath:
 
 if jit.available():  # compile (or load) at import: never in a control cycle
     _line_pose(np.eye(3), np.zeros(3), np.zeros(3), np.zeros(3), 0.5, np.zeros((3, 3)), np.zeros(3))
+    _line_follow(
+        np.eye(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(6), 0.5, 0.5, 1.0,
+        np.zeros((3, 3)), np.zeros(3), np.zeros(6),
+    )  # fmt: skip

@@ -68,6 +68,11 @@ class ControlPointTask(Task):
         self, side: RightLeft, target: pin.SE3, gain: float = DEFAULT_GAIN, weight: float = 1.0
     ):
         self.side = side
+        # The task's own pose, written in place from here on (the compiled rows read its
+        # rotation and translation through views made once: Pinocchio builds a new one at
+        # every access).
+        self._target = pin.SE3.Identity()
+        self._target_arrays = (self._target.rotation, self._target.translation)
         self.target = target
         self.twist = np.zeros(6)
         self.gain = gain
@@ -75,15 +80,24 @@ class ControlPointTask(Task):
 
     @property
     def target(self) -> pin.SE3:
-        """The pose to reach [m] (original frame)."""
+        """The pose to reach [m] (original frame): the task's own, changed in place by
+        :meth:`set_target` and through :attr:`target_buffers`."""
         return self._target
 
     @target.setter
     def target(self, target: pin.SE3) -> None:
-        self._target = target
-        # Views of its rotation and translation (Pinocchio builds one at every access; the
-        # compiled rows read them every cycle): they follow the pose if it changes in place.
-        self._target_arrays = (target.rotation, target.translation)
+        # Copied into the task's own pose: the task keeps no reference to ``target``.
+        rotation, translation = self._target_arrays
+        rotation[...] = target.rotation
+        translation[...] = target.translation
+
+    @property
+    def target_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The target's rotation (3x3) and translation [m] and the feed-forward twist
+        [m/s, rad/s], writable in place: a motion's path writes them every cycle
+        (:meth:`controller.motion.paths.LinePath.follow`) without building a pose."""
+        rotation, translation = self._target_arrays
+        return rotation, translation, self.twist
 
     @property
     def gain(self) -> float:
@@ -95,8 +109,12 @@ class ControlPointTask(Task):
         self._gain = float(gain)
 
     def set_target(self, target: pin.SE3, twist: np.ndarray | None = None) -> None:
+        """Target pose and feed-forward twist (None: zero), both copied."""
         self.target = target
-        self.twist = np.zeros(6) if twist is None else twist
+        if twist is None:
+            self.twist.fill(0.0)
+        else:
+            self.twist[...] = twist
 
     def error(self, kin: Kinematics) -> np.ndarray:
         """Position error [m] and rotation error [rad] (target − measured, original axes)."""
