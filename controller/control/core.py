@@ -360,17 +360,10 @@ class MotionCore:
             self.v_measured = measured.velocity[self._hw_index].copy()
             self.kin.update(self.q)
             faults = self.hw.faults()
-            # A fault raises its alarm once: after clearAlarms a fault that persists does not
-            # re-raise it (servo_on then fails while the hardware cannot reset).
-            fresh = [f for f in faults if f not in self._reported_faults]
-            if not faults:
+            if faults:
+                self._report(faults)
+            elif self._reported_faults:
                 self._reported_faults.clear()
-            if fresh:
-                self._reported_faults.update(fresh)
-                for f in fresh:
-                    self.alarms.append(Alarm(f.code, AlarmType.FAULT, f.description, f.source))
-                if self.state != CoreState.ALARM:
-                    self._enter_alarm()
             if self.state not in (CoreState.READY, CoreState.BUSY, CoreState.PAUSED):
                 self.hw.write(JointCommand(self._hw_cmd, np.zeros_like(self._hw_vel)))
                 return
@@ -402,17 +395,34 @@ class MotionCore:
             self.q_cmd = self.q_cmd + self.v_cmd * step
             self._hw_cmd[self._hw_index] = self.q_cmd
             self._hw_vel[self._hw_index] = self.v_cmd
-            for side, gm in list(self._gripper_motion.items()):
-                idx = self._grippers[side]
-                new = gm.advance(step)
-                self._hw_vel[idx] = (new - self._hw_cmd[idx]) / step
-                self._hw_cmd[idx] = new
-                if gm.finished:
-                    self._hw_vel[idx] = 0.0
-                    del self._gripper_motion[side]
+            if self._gripper_motion:
+                self._advance_grippers(step)
             self.hw.write(JointCommand(self._hw_cmd, self._hw_vel))
             self._watch_blocking(step)
             self._finish_motion()
+
+    def _report(self, faults: list[HardwareFault]) -> None:
+        """The hardware's active ``faults``: each raises its alarm once (after clearAlarms a
+        fault that persists does not raise it again; servo_on then fails while the hardware
+        cannot reset), and a fresh one stops everything."""
+        fresh = [f for f in faults if f not in self._reported_faults]
+        if fresh:
+            self._reported_faults.update(fresh)
+            for f in fresh:
+                self.alarms.append(Alarm(f.code, AlarmType.FAULT, f.description, f.source))
+            if self.state != CoreState.ALARM:
+                self._enter_alarm()
+
+    def _advance_grippers(self, step: float) -> None:
+        """One ``step`` [s] of every moving gripper; a gripper whose motion ends stops."""
+        for side, gm in list(self._gripper_motion.items()):
+            idx = self._grippers[side]
+            new = gm.advance(step)
+            self._hw_vel[idx] = (new - self._hw_cmd[idx]) / step
+            self._hw_cmd[idx] = new
+            if gm.finished:
+                self._hw_vel[idx] = 0.0
+                del self._gripper_motion[side]
 
     def _watch_blocking(self, step: float) -> None:
         """Stop a running motion the collision rows hold back (see

@@ -158,6 +158,8 @@ class Controller(Commands):
             self.collector(left_ns - (time.monotonic_ns() - start))
 
     def _execute_all(self, inbox: queue.SimpleQueue[Request], executed: list[Request]) -> None:
+        if inbox.empty():  # most cycles: no command (and no exception raised to see it)
+            return
         while True:
             try:
                 request = inbox.get_nowait()
