@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
@@ -73,3 +74,37 @@ def test_the_hand_line_is_planned_and_built_as_the_daemon_does():
     mix = dict(segments(core, Refusing(), refused))
     assert mix["hand line"](core) is None and mix[ARMS_CLOSE](core) is None
     assert refused == ["hand line: out of reach", "arms close: out of reach"]
+
+
+def test_the_planned_mix_is_the_specs_the_gateway_would_send():
+    """bench_loop plans the mix as specs (planned in another thread, built in the loop as the
+    control process builds a command's motion): every segment's spec carries the
+    configuration it was planned from and builds the motion ``segments`` builds."""
+    from loop_mix import MixPlanner, planned_segments
+
+    from controller.contract.motion_specs import MotionSpec
+
+    robot = load_robot("smartpal5")
+    dt = 2e-3
+    core = MotionCore(robot, MujocoBackend(robot, dt), dt)
+    core.servo_on()
+    planning = MixPlanner("smartpal5", dt)
+    planned = planned_segments(core, planning)
+    built = segments(core, planning)
+    assert [name for name, _ in planned] == [name for name, _ in built]
+    seen = set()
+    for (name, plan), (_, make) in zip(planned, built, strict=True):
+        core.planning_kinematics()
+        spec = plan(core)
+        assert isinstance(spec, MotionSpec), name
+        assert spec.planned_from is not None
+        np.testing.assert_array_equal(spec.planned_from, core.kin.q)
+        q = core.kin.q.copy()
+        motion = spec.build_as_planned(core.kin, dt)
+        np.testing.assert_array_equal(core.kin.q, q)  # the live kinematics back where they were
+        core.planning_kinematics()
+        reference = make(core)
+        assert type(motion) is type(reference), name
+        assert motion.profile.a_max == pytest.approx(reference.profile.a_max, rel=1e-9), name
+        seen.add(name)
+    assert seen == {"hand line", "elbow swing", "joint ptp", "waist bend", "vehicle", ARMS_CLOSE}

@@ -10,11 +10,15 @@ The mix repeats: hand line out and back, elbow swing with the hand held, joint P
 back, waist bend with the hands held, vehicle out and back, both hands towards each other
 and back ("arms close": each hand to a quarter of its distance from the point between them,
 close enough for the collision rows between the two arms), each where the robot has it.
-Motions are built in a planner thread on the core's planning copy of the kinematics; the hand
-line's reachability check (the only planning that costs milliseconds) runs in a worker
-process, as the daemon's gateway plans in its own process (``--planner thread``: in the
-planner thread, sharing the loop's GIL). The loop only starts the motions. Each cycle also
-publishes the snapshot, as the control process does. The garbage collector runs in the
+Motions are planned as the daemon's gateway plans them, outside the loop: a planner thread
+makes each segment's spec (:func:`loop_mix.planned_segments`: what the gateway sends the
+control process, with the configuration it was planned from) on the core's planning copy of
+the kinematics, the hand line's and arms close's reachability checks (the only planning that
+costs milliseconds) in a worker process, as the gateway plans in its own process
+(``--planner thread``: in the planner thread, sharing the loop's GIL). The loop builds the
+motion from its spec and starts it in one step, as the control process does with a command
+(``MotionSpec.build_as_planned``, then ``core.start``). Each cycle also publishes the
+snapshot, as the control process does. The garbage collector runs in the
 loop's slack as in the daemon (``--gc automatic``: CPython's own collection).
 
 Prints per run: the machine load at its start (``os.getloadavg``), cycle compute time and wake
@@ -26,10 +30,10 @@ per cycle [µs]: read, kinematics, motion, collision (distances and rows), QP bu
 write, publish, other; and each piece's median per segment), the share of cycles with
 collision rows active (in the whole run and during "arms close", where also the share with
 rows between the two arms), the compute time of the cycles with rows active, and what a
-motion start costs: the thread CPU time of ``core.start`` plus the first cycle of the new
-motion, p50/max per kind of motion next to the later cycles of the same kind, and the first
-cycle's pieces against the later cycles' (``build_as_planned`` in the planner thread makes
-the motions' state-independent set-up, ``Motion.prepare``, before they start). With
+motion start costs: the thread CPU time of the start (the motion built from its spec,
+prepared, and ``core.start``) plus the first cycle of the new motion, p50/max per kind of
+motion next to the later cycles of the same kind, and the first cycle's pieces against the
+later cycles'. With
 ``--runs N`` the run repeats N times and the medians of their compute p50/p99, start costs
 and late counts follow. The last line is a JSON object.
 
@@ -76,8 +80,9 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 import machine_floor  # noqa: E402
 import numpy as np  # noqa: E402
-from loop_mix import ARMS_CLOSE, WorkerLineCheck, arm_pairs, script, segments  # noqa: E402
+from loop_mix import ARMS_CLOSE, WorkerLineCheck, arm_pairs, planned_segments, script  # noqa: E402
 
+from controller.contract.motion_specs import MotionSpec  # noqa: E402
 from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
@@ -87,7 +92,7 @@ from controller.motion.motions import Motion  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
 from hal.mujoco_backend import MujocoBackend  # noqa: E402
 
-__all__ = ["main", "script", "segments"]
+__all__ = ["main", "planned_segments", "script"]
 
 
 def _patch(obj: Any, name: str, value: Any) -> None:
@@ -175,7 +180,8 @@ class Breakdown:
         """Close the cycle: wall-clock ``compute_ns`` and thread CPU ``cpu_ns`` of the step,
         ``rows`` collision rows, ``arm_rows`` some between the two arms, ``segment``: index
         of the running motion's segment (-1: none), ``start_ns``: thread CPU of the
-        ``core.start`` this step made (0: none; part of ``cpu_ns``), ``plant_ns``: the
+        motion start this step made (built from its spec, ``core.start``; 0: none; part of
+        ``cpu_ns``), ``plant_ns``: the
         stand-in's physics step after it, in the slack (``hw.advance()``, wall clock)."""
         if self.n < len(self.rows):
             row = self.rows[self.n]
@@ -213,10 +219,10 @@ class Breakdown:
 
     def start_summary(self, names: list[str], period_us: float) -> dict[str, Any]:
         """What a motion start costs, per segment and over all starts: thread CPU [µs] of
-        ``core.start`` plus the first cycle of the new motion (``start_first``: p50, max),
-        each alone (``start``, ``first``: p50), against the segment's later cycles
-        (``steady``: p50); ``over_period``: starts whose start step or first cycle took
-        longer than the period on the wall clock."""
+        the start (built from its spec, ``core.start``) plus the first cycle of the new
+        motion (``start_first``: p50, max), each alone (``start``, ``first``: p50), against
+        the segment's later cycles (``steady``: p50); ``over_period``: starts whose start
+        step or first cycle took longer than the period on the wall clock."""
         rows = self.rows[: self.n]
         at = np.flatnonzero(rows[:, START] > 0)
         at = at[at + 1 < len(rows)]  # the first cycle of the motion is the next step
@@ -345,11 +351,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     core = MotionCore(robot, MujocoBackend(robot, dt), dt)
     core.servo_on()
     line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
-    mix = segments(core, line_check)
+    mix = planned_segments(core, line_check)
     names = [name for name, _ in mix]
     close = names.index(ARMS_CLOSE) if ARMS_CLOSE in names else -2
     done = {"motions": 0, "skipped": 0, "next": 0}
-    ready: list[tuple[int, Motion]] = []
+    ready: list[tuple[int, MotionSpec]] = []
     finished = threading.Event()
     collision = core.collision
     arm_rows = (
@@ -363,12 +369,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     def plan_next() -> None:
         core.planning_kinematics()  # refresh the copy the factories use
         k = done["next"] % len(mix)
-        motion = mix[k][1](core)
+        spec = mix[k][1](core)
         done["next"] += 1
-        if motion is None:
+        if spec is None:
             done["skipped"] += 1
         else:
-            ready.append((k, motion))
+            ready.append((k, spec))
 
     def planner() -> None:
         # Woken by the loop (a thread polling every millisecond would take the loop's GIL).
@@ -400,9 +406,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         if core.motion is None:
             segment["now"] = -1
         if ready and core.state == CoreState.READY and core.motion is None:
-            k, motion = ready.pop()
+            k, spec = ready.pop()
             s0 = time.thread_time_ns()
-            core.start(motion)
+            # As the control process starts a command's motion: built from its spec at the
+            # configuration it was planned from, prepared and started in this step.
+            core.start(spec.build_as_planned(core.kin, core.dt))
             start_cpu = max(1, time.thread_time_ns() - s0)
             segment["now"] = names.index(names[k])  # the segment's first entry
             done["motions"] += 1
@@ -547,8 +555,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             f"(the mix: {cpu['p99'] / cpu['p50']:.2f}): the machine's spread"
         )
     print(
-        "motion start, thread CPU [us] of core.start + the first cycle, p50/max (start, first "
-        "cycle p50; the segment's later cycles p50; starts with a step over the period): "
+        "motion start, thread CPU [us] of the start (build + core.start) + the first cycle, "
+        "p50/max (start, first cycle p50; the segment's later cycles p50; starts with a step "
+        "over the period): "
         + ", ".join(
             f"{name} {v['start_first_p50']:.0f}/{v['start_first_max']:.0f} ({v['start_p50']:.0f}"
             f" + {v['first_p50']:.0f}; {v['steady_p50']:.0f}; {v['over_period']}/{v['starts']})"

@@ -25,7 +25,14 @@ from typing import Any, Protocol
 import numpy as np
 import pinocchio as pin
 
-from controller.contract.motion_specs import CartesianMoveSpec, DualCartesianSpec, MotionSpec
+from controller.contract.motion_specs import (
+    CartesianMoveSpec,
+    CPHoldSpec,
+    DualCartesianSpec,
+    JointMoveSpec,
+    MotionSpec,
+    VehicleMoveSpec,
+)
 from controller.contract.snapshot import Snapshot
 from controller.control.core import MotionCore
 from controller.errors import Refused
@@ -35,12 +42,15 @@ from controller.gateway.planning.robot_view import RobotView
 from controller.model.kinematics import Kinematics
 from controller.model.redundant_axes import axis_value, elbow_axis
 from controller.model.robot import load_robot
-from controller.motion.motions import CPHoldMotion, JointMotion, Motion, VehicleMotion, arm_joints
+from controller.motion.motions import Motion, arm_joints
 from controller.vocabulary import CoreState, RightLeft, UnitType
 from hal.interface import HardwareState
 
 RIGHT = RightLeft.RIGHT
+#: Makes a segment's motion; None: skipped.
 Factory = Callable[[MotionCore], Motion | None]
+#: Plans a segment's motion (the spec the gateway would send); None: skipped.
+SpecFactory = Callable[[MotionCore], MotionSpec | None]
 #: A snapshot's frames (:func:`frames_of`).
 Frames = tuple[np.ndarray, float, np.ndarray]
 #: The segment of the mix with the two arms close together.
@@ -201,63 +211,84 @@ def segments(
     core: MotionCore, line_check: Planning | None = None, refused: list[str] | None = None
 ) -> list[tuple[str, Factory]]:
     """The motion mix for this robot: (segment name, factory building the motion on the
-    planning copy). The hand line and "arms close" are planned as the daemon plans them
-    (:class:`MixPlanner`, in this thread; ``line_check`` elsewhere, e.g.
-    :class:`WorkerLineCheck`) and built as the control process builds them
-    (:meth:`~controller.contract.motion_specs.MotionSpec.build_as_planned`); a move the
-    daemon would refuse is skipped (its factory returns None) and why goes to ``refused``."""
+    planning copy): :func:`planned_segments`' specs, each built as the control process
+    builds it (:meth:`~controller.contract.motion_specs.MotionSpec.build_as_planned`)."""
+    kin, dt = core.planning_kinematics(), core.dt
+
+    def building(plan: SpecFactory) -> Factory:
+        def make(c: MotionCore) -> Motion | None:
+            spec = plan(c)
+            return None if spec is None else spec.build_as_planned(kin, dt)
+
+        return make
+
+    return [(name, building(plan)) for name, plan in planned_segments(core, line_check, refused)]
+
+
+def planned_segments(
+    core: MotionCore, line_check: Planning | None = None, refused: list[str] | None = None
+) -> list[tuple[str, SpecFactory]]:
+    """The motion mix for this robot: (segment name, factory planning the motion on the
+    planning copy, as the daemon's gateway would: the spec it sends the control process,
+    with the configuration it was planned from). The hand line and "arms close" are planned
+    as the daemon plans them (:class:`MixPlanner`, in this thread; ``line_check`` elsewhere,
+    e.g. :class:`WorkerLineCheck`); a move the daemon would refuse is skipped (its factory
+    returns None) and why goes to ``refused``."""
     kin, dt = core.planning_kinematics(), core.dt
     planning: Planning = line_check if line_check is not None else MixPlanner(core.robot.id, dt)
 
-    def built(segment: str, planned: tuple[MotionSpec | None, str | None]) -> Motion | None:
+    def built(segment: str, planned: tuple[MotionSpec | None, str | None]) -> MotionSpec | None:
         spec, why = planned
         if spec is None:
             if refused is not None:
                 refused.append(f"{segment}: {why}")
-            return None
-        return spec.build_as_planned(kin, dt)
+        return spec
 
-    def line(sign: float) -> Factory:
-        def make(c: MotionCore) -> Motion | None:
+    def line(sign: float) -> SpecFactory:
+        def make(c: MotionCore) -> MotionSpec | None:
             return built("hand line", planning.line(kin.q.copy(), frames_of(kin), sign))
 
         return make
 
-    def hold(axis_of: Callable[[], object], delta: float, held: tuple[RightLeft, ...]) -> Factory:
-        def make(c: MotionCore) -> Motion | None:
+    def hold(
+        axis_of: Callable[[], object], delta: float, held: tuple[RightLeft, ...]
+    ) -> SpecFactory:
+        def make(c: MotionCore) -> MotionSpec | None:
             axis = axis_of()
             goal = axis_value(kin, axis) + delta  # type: ignore[arg-type]
             speed = np.array([math.radians(20)])
-            return CPHoldMotion(kin, dt, held, {axis: goal}, speed, 2 * speed)  # type: ignore[dict-item]
+            targets = {axis: goal}
+            planned_from = kin.q.copy()
+            return CPHoldSpec(held, targets, speed, 2 * speed, planned_from=planned_from)  # type: ignore[arg-type]
 
         return make
 
-    def ptp(delta: float) -> Factory:
-        def make(c: MotionCore) -> Motion | None:
+    def ptp(delta: float) -> SpecFactory:
+        def make(c: MotionCore) -> MotionSpec | None:
             joints = kin.unit_indices(UnitType.RIGHT_ARM)
             box = c.ik.box
-            return JointMotion(
-                kin,
-                dt,
+            return JointMoveSpec(
                 joints,
                 c.q_cmd[joints] + delta,
                 0.5 * box.v_max[joints],
                 0.5 * box.a_max[joints],
+                planned_from=kin.q.copy(),
             )
 
         return make
 
-    def drive(x: float) -> Factory:
-        def make(c: MotionCore) -> Motion | None:
+    def drive(x: float) -> SpecFactory:
+        def make(c: MotionCore) -> MotionSpec | None:
             pose = kin.vehicle_pose()
-            return VehicleMotion(kin, dt, np.array([x, pose[1], pose[2]]), (0.2, 0.5), (0.4, 1.0))
+            target = np.array([x, pose[1], pose[2]])
+            return VehicleMoveSpec(target, (0.2, 0.5), (0.4, 1.0), planned_from=kin.q.copy())
 
         return make
 
     home: dict[RightLeft, np.ndarray] = {}
 
-    def arms(close: bool) -> Factory:
-        def make(c: MotionCore) -> Motion | None:
+    def arms(close: bool) -> SpecFactory:
+        def make(c: MotionCore) -> MotionSpec | None:
             poses = {side: kin.pose(side) for side in kin.arms}
             if close:
                 home.update((side, p.homogeneous.copy()) for side, p in poses.items())
@@ -272,7 +303,7 @@ def segments(
 
         return make
 
-    mix: list[tuple[str, Factory]] = [("hand line", line(1.0)), ("hand line", line(-1.0))]
+    mix: list[tuple[str, SpecFactory]] = [("hand line", line(1.0)), ("hand line", line(-1.0))]
     if kin.has_elbow(RIGHT):
         mix += [
             ("elbow swing", hold(lambda: elbow_axis(RIGHT), math.radians(10), (RIGHT,))),
