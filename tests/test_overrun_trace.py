@@ -116,6 +116,19 @@ def test_a_step_slow_in_every_part_is_the_hosts_slow_cpu_one_part_grown_is_its_o
     assert "slow cpu" in HOST_CAUSES and "cpu" not in HOST_CAUSES
 
 
+def test_the_cause_is_the_part_most_above_its_usual_value_not_the_largest():
+    trace, latency, compute = steady_trace(10)
+    # 4: a step of its usual 0.7 ms CPU (the largest part) in a cycle that woke 0.6 ms late
+    # and waited its whole feedback_wait (0.4 ms) for TPDOs, 0.3 ms more off the CPU.
+    latency[4] = 620.0
+    trace.read_wait[4] = 0.7e-3
+    trace.read_wall[4] = 0.95e-3
+    trace.switches[4] = 1
+    compute[4] = 1450.0
+    (row,) = trace.overruns(PERIOD, 0.4e-3, latency, compute)
+    assert row["cpu_us"] == 700.0 and row["cause"] == "late wake"
+
+
 def test_off_the_cpu_without_leaving_it_is_the_hosts_steal():
     trace, latency, compute = steady_trace(10)
     # 2 and 6: 1.5 ms more wall time than CPU time in write(); 6 waited (a switch) for the

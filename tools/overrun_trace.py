@@ -12,7 +12,9 @@ every :data:`STEAL_EVERY` cycles, the steal time of each CPU (``/proc/stat``: ti
 hypervisor ran something else while the guest's CPU wanted to run). Nothing is allocated
 per cycle (a growing list would add page faults of its own to the figures). After the
 run, :meth:`CycleTrace.overruns` joins these with the loop's wake latency and compute time
-and names, per overrun, the largest part of it:
+and names, per overrun, the part of it most above that part's median over the run (what
+made the cycle longer than the others, not the largest part: a step of usual cost in a
+cycle that woke 0.5 ms late and waited 0.4 ms for TPDOs is a late wake, not its CPU):
 
 * ``gc``: garbage collections of this process in or just before the cycle;
 * ``tpdo wait``: ``read()`` waiting (up to ``feedback_wait``) for TPDOs the emulator had not
@@ -26,13 +28,13 @@ and names, per overrun, the largest part of it:
   shows a gap of that length without a sample in the middle of ordinary code;
 * ``late wake``: the loop woke late (the host's: :mod:`machine_floor`'s bare thread wakes
   as late as often);
-* ``slow cpu``: the step's own work, but not one part of it grown: at least two of its
-  three parts (``read()``'s own CPU, ``write()``, the rest of the step) took
-  :data:`SLOW` times their run's median or more, with no page fault, context switch or
-  collection in the cycle. ``write()`` does the same work every cycle (the same frames,
-  the same five sends), so it is a probe of the CPU's speed: the virtual CPU ran slow,
-  the host's doing (``perf record`` of such cycles shows its samples spread evenly over
-  ordinary code, no kernel path, no fault);
+* ``slow cpu``: the step's own work, but not one part of it grown: ``write()`` and one of
+  the other two parts (``read()``'s own CPU, the rest of the step) each took :data:`SLOW`
+  times their run's median or more, with no page fault, context switch or collection in
+  the cycle. ``write()`` does the same work every cycle (the same frames, the same sends),
+  so it is a probe of the CPU's speed: the virtual CPU ran slow, the host's doing
+  (``perf record`` of such cycles shows its samples spread evenly over ordinary code, no
+  kernel path, no fault);
 * ``cpu``: the step's own work (one part of it grown: e.g. a motion's first cycle).
 
 ``steal``, ``late wake`` and ``slow cpu`` are the host's; ``cpu`` and ``gc`` the loop's own;
@@ -63,8 +65,9 @@ HOST_CAUSES = ("steal", "late wake", "slow cpu")
 #: slack; its figures move in 10 ms steps anyway).
 STEAL_EVERY = 5
 
-#: ``slow cpu``: how many times its run's median a part of the step must take (module doc).
-SLOW = 1.5
+#: ``slow cpu``: how many times their run's medians ``write()`` and another part of the step
+#: must take (module doc). Each part alone passes twice its median in ~0.1 % of cycles.
+SLOW = 2.0
 
 
 def _sched_getcpu() -> Callable[[], int] | None:
@@ -296,9 +299,9 @@ class CycleTrace:
         np.savez(path, **arrays)
 
     def slowdown(self, compute_us: np.ndarray) -> np.ndarray:
-        """Per cycle (of ``compute_us``, the loop's [µs]): how many times its run's median
-        the step's parts took, the second largest of the three ratios (module doc: ``slow
-        cpu`` when it is :data:`SLOW` or more)."""
+        """Per cycle (of ``compute_us``, the loop's [µs]): how many times their run's median
+        ``write()`` and another part of the step (``read()``'s CPU or the rest) both took at
+        least (module doc: ``slow cpu`` when it is :data:`SLOW` or more)."""
         n = min(len(compute_us), self.capacity)
         compute = np.asarray(compute_us[:n], dtype=float) * 1e-6
         parts = np.stack([
@@ -308,7 +311,7 @@ class CycleTrace:
         ])  # fmt: skip
         medians = np.median(parts, axis=1) if n else np.zeros(3)
         ratios = parts / np.maximum(medians, 1e-9)[:, None]
-        return np.sort(ratios, axis=0)[1] if n else np.zeros(0)
+        return np.minimum(ratios[1], np.maximum(ratios[0], ratios[2]))
 
     def overruns(
         self,
@@ -318,23 +321,35 @@ class CycleTrace:
         compute_us: Sequence[float] | np.ndarray,
     ) -> list[dict[str, Any]]:
         """One row per cycle whose wake latency + compute time passed ``period`` [s] (the
-        loop's arrays [µs], in cycle order): its figures [µs] and the largest ``cause``.
-        ``read()`` off the CPU up to ``feedback_wait`` [s] is waiting for TPDOs, beyond it
-        (select returned, the GIL or the CPU was not free) is off the CPU."""
+        loop's arrays [µs], in cycle order): its figures [µs] and its ``cause``, the part of
+        it most above that part's median over the run (what made this cycle longer than the
+        others; the module doc lists them). ``read()`` off the CPU up to ``feedback_wait``
+        [s] is waiting for TPDOs, beyond it (select returned, the GIL or the CPU was not
+        free) is off the CPU."""
         rows = []
         n = min(len(latency_us), len(compute_us), self.capacity)
-        slowdown = self.slowdown(np.asarray(compute_us[:n], dtype=float))
+        latencies = np.asarray(latency_us[:n], dtype=float)
+        computes = np.asarray(compute_us[:n], dtype=float)
+        slowdown = self.slowdown(computes)
+        # Per cycle [µs]: TPDO wait, own CPU (collections left out), off the CPU.
+        waits = np.minimum(self.read_wait[:n], feedback_wait) * 1e6
+        cpus = (self.step_cpu[:n] - self.gc_in[:n]) * 1e6
+        offs = np.maximum(0.0, computes - self.step_cpu[:n] * 1e6 - waits)
+        usual = {
+            name: float(np.median(values)) if n else 0.0
+            for name, values in (("tpdo wait", waits), ("off cpu", offs),
+                                 ("late wake", latencies), ("cpu", cpus))
+        }  # fmt: skip
+        usual["gc"] = 0.0
         for k in range(n):
-            latency, compute = float(latency_us[k]), float(compute_us[k])
+            latency, compute = float(latencies[k]), float(computes[k])
             if latency + compute <= period * 1e6:
                 continue
             gc_us = (self.gc_in[k] + self.gc_before[k]) * 1e6
-            wait = min(self.read_wait[k], feedback_wait) * 1e6  # the rest: not on the CPU
-            cpu = self.step_cpu[k] * 1e6
-            off = max(0.0, compute - cpu - wait)
+            wait, cpu, off = float(waits[k]), self.step_cpu[k] * 1e6, float(offs[k])
             parts = {"gc": gc_us, "tpdo wait": wait, "off cpu": off, "late wake": latency,
-                     "cpu": cpu - self.gc_in[k] * 1e6}  # fmt: skip
-            cause = max(parts, key=lambda name: parts[name])
+                     "cpu": float(cpus[k])}  # fmt: skip
+            cause = max(parts, key=lambda name: parts[name] - usual[name])
             quiet = not (self.faults[k] or self.switches[k] or self.preempted[k] or gc_us)
             if cause == "cpu" and quiet and slowdown[k] >= SLOW:
                 cause = "slow cpu"
