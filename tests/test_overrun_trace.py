@@ -173,7 +173,7 @@ def test_steal_is_read_from_proc_stat_per_cpu(tmp_path):
 def test_an_overrun_row_has_the_steal_of_its_cpu_between_the_reads_around_it():
     trace, latency, compute = steady_trace(20)
     trace._stat = None  # reads set by hand: before cycle 0, after cycles 4, 9, 14
-    trace.steal[:4] = [[0.0, 0.0], [0.0, 0.01], [0.02, 0.01], [0.02, 0.01]]
+    trace.steal[:4] = [[0.0, 0.0], [0.0, 0.01], [0.02, 0.015], [0.02, 0.015]]
     trace.steal_cycle[:4] = [-1, 4, 9, 14]
     trace._steals = 4
     trace.cpu_begin[:] = trace.cpu_end[:] = 0
@@ -182,9 +182,12 @@ def test_an_overrun_row_has_the_steal_of_its_cpu_between_the_reads_around_it():
     rows = {r["cycle"]: r for r in trace.overruns(PERIOD, 0.4e-3, latency, compute)}
     assert rows[3]["steal_us"] == 10000.0 and rows[3]["steal_window_cycles"] == 5
     assert rows[3]["cpus"] == [1] and rows[3]["cause"] == "late wake"
+    assert rows[3]["steal_other_cpus_us"] == 0.0
     assert rows[7]["steal_us"] == 20000.0  # cpu 0 between the reads after cycles 4 and 9
+    assert rows[7]["steal_other_cpus_us"] == 5000.0  # cpu 1, the other one
+    assert rows[3]["steal_us"] + rows[3]["steal_other_cpus_us"] == 10000.0
     assert rows[17]["steal_us"] == 0.0 and rows[17]["steal_window_cycles"] == 0  # no read after
-    assert trace.steal_total() == [0.02, 0.01]
+    assert trace.steal_total() == [0.02, 0.015]
 
 
 def test_a_recorded_step_counts_its_page_faults_switches_and_cpu():

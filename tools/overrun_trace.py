@@ -276,18 +276,18 @@ class CycleTrace:
             return [0.0] * self.steal.shape[1]
         return [round(float(x), 3) for x in self.steal[n - 1] - self.steal[0]]
 
-    def steal_around(self, k: int) -> tuple[float, int]:
-        """The steal time [s] of the CPUs cycle ``k`` ran on (every CPU if unknown) between
-        the reads before and after it, and how many cycles apart they were (0: no read
-        after it)."""
+    def steal_around(self, k: int) -> tuple[float, float, int]:
+        """Between the reads before and after cycle ``k``: the steal time [s] of the CPUs
+        it ran on (every CPU if unknown), of the other CPUs (where the emulator process
+        ran, on two), and how many cycles apart the reads were (0: no read after it)."""
         cycles = self.steal_cycle[: self._steals]
         j = int(np.searchsorted(cycles, k))  # the first read after the step of cycle k
         if j == 0 or j >= len(cycles):
-            return 0.0, 0
+            return 0.0, 0.0, 0
         cpus = {int(c) for c in (self.cpu_begin[k], self.cpu_end[k]) if c >= 0}
         delta = self.steal[j] - self.steal[j - 1]
-        steal = sum(delta[c] for c in cpus) if cpus else delta.sum()
-        return float(steal), int(cycles[j] - cycles[j - 1])
+        own = sum(delta[c] for c in cpus) if cpus else delta.sum()
+        return float(own), float(delta.sum() - own), int(cycles[j] - cycles[j - 1])
 
     # ----------------------------------------------------------------------- the report
     def save(self, path: str, latency_us: np.ndarray, compute_us: np.ndarray) -> None:
@@ -355,7 +355,7 @@ class CycleTrace:
                 cause = "slow cpu"
             elif cause == "off cpu" and not (self.switches[k] or self.preempted[k]):
                 cause = "steal"
-            steal, window = self.steal_around(k)
+            steal, steal_others, window = self.steal_around(k)
             rows.append({
                 "cycle": k,
                 "wake_us": round(latency, 1),
@@ -376,6 +376,7 @@ class CycleTrace:
                 "slowdown": round(float(slowdown[k]), 2),
                 "cpus": sorted({int(self.cpu_begin[k]), int(self.cpu_end[k])}),
                 "steal_us": round(steal * 1e6, 1),
+                "steal_other_cpus_us": round(steal_others * 1e6, 1),
                 "steal_window_cycles": window,
                 "planning": bool(self.planning_during[k]),
                 # started a motion, or ran its first cycle
