@@ -60,3 +60,10 @@ def test_no_floor_when_told_and_the_hosts_share_and_every_cycle_saved(tmp_path):
     with np.load(saved) as cycles:
         assert len(cycles["compute_us"]) == result["cycles"] == 125
         assert (cycles["send_wall"][:125] > 0).all() and int(cycles["tid"]) > 0
+
+
+def test_the_emulator_in_this_process_in_lockstep_runs_too():
+    _, result = run_tool("bench_hil.py", *SHORT, "--rate", "250", "--floor-seconds", "0",
+                         "--emulator", "thread")  # fmt: skip
+    assert result["emulator"] == "thread" and result["cycles"] == 125
+    assert result["emulator_cpu_us_per_cycle"] is None  # no process of its own

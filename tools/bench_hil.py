@@ -62,6 +62,7 @@ import argparse
 import json
 import math
 import os
+import subprocess
 import sys
 import threading
 import time
@@ -239,6 +240,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     warm_cycles = int(rate * WARMUP_S)
     seam: dict[str, Any] = {}  # the counters where the measured run begins
     child = getattr(getattr(hw, "emulator", None), "process", None)
+    if not isinstance(child, subprocess.Popen):  # (a DriveEmulator's process() is a method)
+        child = None
     # The emulator's garbage collections: a round trip to its process, never while the
     # loop runs (its main thread answers holding the emulator's lock): counted from here.
     status0 = emulator_status(hw)
