@@ -142,12 +142,15 @@ def test_off_the_cpu_without_leaving_it_is_the_hosts_steal():
     assert rows[0]["off_cpu_us"] == 1550.0 and rows[1]["switches"] == 3
 
 
-def test_the_sends_of_a_write_add_up_per_cycle():
-    trace = trace_of(2)
-    trace._cycle = 1
+def test_the_sends_of_a_write_add_up_per_cycle_and_none_after_the_last_step():
+    trace = CycleTrace(2)
+    trace.begin(1)
     for _ in range(5):
         trace.sent(10e-6, 12e-6)
     trace.write_done(0.2e-3, 0.2e-3)
+    trace.end()
+    trace.close()
+    trace.sent(1e-3, 1e-3)  # e.g. the shutdown's, after the loop: not the last step's
     assert abs(trace.send_wall[1] - 50e-6) < 1e-12 and abs(trace.send_cpu[1] - 60e-6) < 1e-12
     assert trace.send_wall[0] == 0.0 and trace.write_wall[1] == 0.2e-3
 

@@ -366,6 +366,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         # write()'s socket sends (one record per bus), wall time per cycle
         "send_us_p50": round(float(np.percentile(trace.send_wall[:measured], 50)) * 1e6, 1),
         "send_us_p99": round(float(np.percentile(trace.send_wall[:measured], 99)) * 1e6, 1),
+        "send_us_max": round(float(trace.send_wall[:measured].max()) * 1e6, 1),
+        "sends_over_400us": int(np.count_nonzero(trace.send_wall[:measured] > 400e-6)),
     }
     steal = trace.steal_total()
     cycles = max(1, int(stats["cycles"]))
@@ -401,7 +403,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         f"master read+write per cycle: CPU p50 {master['master_cpu_us_p50']:.1f} "
         f"p99 {master['master_cpu_us_p99']:.1f} us; wall p50 {master['master_wall_us_p50']:.1f} "
         f"p99 {master['master_wall_us_p99']:.1f} us; write()'s socket sends (a record per bus) "
-        f"p50 {master['send_us_p50']:.1f} p99 {master['send_us_p99']:.1f} us"
+        f"p50 {master['send_us_p50']:.1f} p99 {master['send_us_p99']:.1f} max "
+        f"{master['send_us_max']:.0f} us, over 0.4 ms in {master['sends_over_400us']} cycles"
     )
     emulator_text = (
         f"{cpu_share['emulator_cpu_us_per_cycle']:.1f}" if emulator_cpu is not None else "-"

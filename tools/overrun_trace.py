@@ -175,7 +175,9 @@ class CycleTrace:
         self.gc_longest_generation = -1
 
     def close(self) -> None:
-        """Stop counting collections and reading steal time."""
+        """Stop recording (what comes after the last step, e.g. the shutdown's sends, is
+        not its) and counting collections and reading steal time."""
+        self._cycle = -1
         if self._on_gc in gc.callbacks:
             gc.callbacks.remove(self._on_gc)
         if self._stat is not None:
