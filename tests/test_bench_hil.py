@@ -1,7 +1,11 @@
 """tools/bench_hil.py: one loop for the warm-up and the measured run, and the machine's
-floor read beside the run's overruns (issue 13)."""
+floor read beside the run's overruns, the host's share of them (issue 13)."""
 
 from __future__ import annotations
+
+import os
+
+import numpy as np
 
 from tests.support import run_tool
 
@@ -44,6 +48,23 @@ def test_each_rate_gets_its_floor_with_a_second_thread_at_the_emulator_priority(
     assert "machine floor's late wakes (FIFO 80 / 70)" in out
 
 
-def test_no_floor_when_told():
-    _, result = run_tool("bench_hil.py", *SHORT, "--rate", "250", "--floor-seconds", "0")
+def test_no_floor_when_told_and_the_hosts_share_and_every_cycle_saved(tmp_path):
+    saved = tmp_path / "cycles.npz"
+    _, result = run_tool("bench_hil.py", *SHORT, "--rate", "250", "--floor-seconds", "0",
+                         "--trace-out", str(saved))  # fmt: skip
     assert "machine_floor" not in result and "floor_late" not in result
+    # What tells the host's overruns from the loop's own: steal time, the host's causes.
+    assert len(result["steal_s_per_cpu"]) == os.cpu_count()
+    assert 0 <= result["host_overruns"] <= result["overruns"]
+    assert result["send_us_p50"] > 0.0  # write()'s socket sends, timed apart
+    assert result["send_us_max"] >= result["send_us_p99"] and result["sends_over_400us"] >= 0
+    with np.load(saved) as cycles:
+        assert len(cycles["compute_us"]) == result["cycles"] == 125
+        assert (cycles["send_wall"][:125] > 0).all() and int(cycles["tid"]) > 0
+
+
+def test_the_emulator_in_this_process_in_lockstep_runs_too():
+    _, result = run_tool("bench_hil.py", *SHORT, "--rate", "250", "--floor-seconds", "0",
+                         "--emulator", "thread")  # fmt: skip
+    assert result["emulator"] == "thread" and result["cycles"] == 125
+    assert result["emulator_cpu_us_per_cycle"] is None  # no process of its own

@@ -6,6 +6,7 @@ Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,
                                  [--emulator process|thread] [--drives PATH]
                                  [--planner process|thread] [--gc slack|automatic]
                                  [--planner-priority 50] [--no-realtime]
+                                 [--trace-out cycles.npz]
 
 ``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By
 default the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`):
@@ -19,26 +20,29 @@ sent and received), the master's own share per cycle (``read()`` + ``write()``: 
 time, i.e. encode, send, receive, decode, supervision without the waits; and wall time,
 waits included), the CPU time per cycle of the emulator process and of this process (all
 threads), the load average, the garbage collections of both processes, one row per overrun
-with what it was made of and its cause (:mod:`overrun_trace`: gc, TPDO wait, off CPU, late
-wake, own CPU), and as the last line a JSON object. The first second (servo on:
-``activate()`` blocks the loop for its enabling cycles, by design; the first motion) is a
-warm-up, reported apart and not counted; it is the same loop as the measured run (as the
-daemon runs one loop), the counters put aside in the slack of its last cycle: a loop started
-anew after it (the real-time set-up again, 70-130 ms without a cycle) made the first
-measured step 2-3 times dearer, cold after the pause, and it overran now and then
-(``warmup_seam_periods``: periods between the warm-up's last cycle and the first measured
-one, 1 unless that cycle overran). The emulator's collections are counted from the
-warm-up on (its ``status`` is a round trip to its process, never asked while the loop
-runs). Alarms (FAULT type: the loop stops) and warnings
-(e.g. a motion that ended off its target) are counted apart. As in the daemon, the garbage
-collector runs in the loop's slack (``--gc automatic``: CPython's own) and the planning of
-the hand line and arms close, the only planning that costs milliseconds, runs in a worker
-process (``--planner thread``: in the planning thread, sharing the loop's GIL). ``--drives``
-runs another drive profile (e.g. ``config/robots/smartpal5/drives-1khz.yaml``, a bus split
-for 1 kHz). ``--rates`` runs each rate in turn (a fresh emulator each), prints a summary
-line per rate and the highest rate without overruns and alarms; the JSON line then holds
-every run (``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs the planning
-thread under SCHED_FIFO (below the loop's 80 and the emulator's 70): a planner that the host
+with what it was made of and its cause (:mod:`overrun_trace`: gc, TPDO wait, off CPU,
+steal, late wake, slow CPU, own CPU; steal, late wake and slow CPU are the host's, counted
+as ``host_overruns``), the steal time of each CPU over the run (``steal_s_per_cpu``, and per
+overrun row around its cycle), and as the last line a JSON object. ``--trace-out`` saves
+every measured cycle's figures (:meth:`overrun_trace.CycleTrace.save`, for ``perf``).
+The first second (servo on: ``activate()`` blocks the loop for its enabling cycles, by
+design; the first motion) is a warm-up, reported apart and not counted; it is the same loop
+as the measured run (as the daemon runs one loop), the counters put aside in the slack of
+its last cycle: a loop started anew after it (the real-time set-up again, 70-130 ms without
+a cycle) made the first measured step 2-3 times dearer, cold after the pause, and it
+overran now and then (``warmup_seam_periods``: periods between the warm-up's last cycle and
+the first measured one, 1 unless that cycle overran). The emulator's collections are
+counted from the warm-up on (its ``status`` is a round trip to its process, never asked
+while the loop runs). Alarms (FAULT type: the loop stops) and warnings (e.g. a motion that
+ended off its target) are counted apart. As in the daemon, the garbage collector runs in
+the loop's slack (``--gc automatic``: CPython's own) and the planning of the hand line and
+arms close, the only planning that costs milliseconds, runs in a worker process
+(``--planner thread``: in the planning thread, sharing the loop's GIL). ``--drives`` runs
+another drive profile (e.g. ``config/robots/smartpal5/drives-1khz.yaml``, a bus split for
+1 kHz). ``--rates`` runs each rate in turn (a fresh emulator each), prints a summary line per
+rate and the highest rate without overruns and alarms; the JSON line then holds every run
+(``runs``) and ``highest_clean_rate_hz``. ``--planner-priority`` runs the planning thread
+under SCHED_FIFO (below the loop's 80 and the emulator's 70): a planner that the host
 deschedules while it holds the GIL stalls the real-time loop for as long. The planning
 thread sleeps until the loop finds the robot idle (no polling).
 
@@ -58,6 +62,7 @@ import argparse
 import json
 import math
 import os
+import subprocess
 import sys
 import threading
 import time
@@ -71,7 +76,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 import machine_floor  # noqa: E402
 import numpy as np  # noqa: E402
 from loop_mix import WorkerLineCheck, segments  # noqa: E402
-from overrun_trace import CycleTrace, print_overruns  # noqa: E402
+from overrun_trace import HOST_CAUSES, CycleTrace, print_overruns  # noqa: E402
 
 from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
@@ -116,6 +121,7 @@ def main() -> int:
                         help="after the runs, the machine's floor at each run's rate "
                              "(tools/machine_floor.py) this long [s] (default: --seconds; "
                              "0: skip)")  # fmt: skip
+    parser.add_argument("--trace-out", help="save every measured cycle's figures (.npz)")
     args = parser.parse_args()
     sys.setswitchinterval(args.switch_interval)
     floor_seconds = args.seconds if args.floor_seconds is None else args.floor_seconds
@@ -140,6 +146,7 @@ def main() -> int:
     for r in runs:
         print(f"  {r['rate_hz']:7g} Hz  overruns {r['overruns']:6d} / {r['cycles']}  "
               f"floor {_count(r.get('floor_late'))} / {_count(r.get('floor_late_emulator'))}  "
+              f"(host's {r['host_overruns']})  "
               f"alarms {r['alarms']}  compute p99 {r['compute_us_p99']:7.1f} us  "
               f"wake p99 {r['wake_latency_us_p99']:7.1f} us  "
               f"master {r['master_cpu_us_p50']:6.1f} us  "
@@ -182,12 +189,23 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         write(command)
         trace.write_done(time.perf_counter() - w, time.thread_time() - c)
 
+    def timed_sender(send: Any) -> Any:
+        def timed_send(record: Any) -> None:
+            c, w = time.thread_time(), time.perf_counter()
+            send(record)
+            trace.sent(time.perf_counter() - w, time.thread_time() - c)
+
+        return timed_send
+
     hw.read = timed_read  # type: ignore[method-assign]
     hw.write = timed_write  # type: ignore[method-assign]
     core = MotionCore(robot, hw, dt)
     # Configure now; servo on from inside the running loop, as the daemon does: enabled
     # drives expect the cycle's heartbeat (a loop that stalls lets them time out and stop).
     hw.configure()
+    for port in hw.io.ports:  # write()'s socket sends, timed apart
+        if port.send_record is not None:
+            port.send_record = timed_sender(port.send_record)
     line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
     refused: list[str] = []  # moves of the mix the daemon's planning refused (skipped)
     mix = segments(core, line_check, refused)
@@ -222,6 +240,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     warm_cycles = int(rate * WARMUP_S)
     seam: dict[str, Any] = {}  # the counters where the measured run begins
     child = getattr(getattr(hw, "emulator", None), "process", None)
+    if not isinstance(child, subprocess.Popen):  # (a DriveEmulator's process() is a method)
+        child = None
     # The emulator's garbage collections: a round trip to its process, never while the
     # loop runs (its main thread answers holding the emulator's lock): counted from here.
     status0 = emulator_status(hw)
@@ -253,6 +273,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     def slack(ns: int) -> None:
         if loop.stats.cycles == warm_cycles:  # after the warm-up's last step
             start_measuring()
+        else:
+            trace.sample_steal()
         if collector is not None:
             collector(ns)
 
@@ -260,6 +282,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         """The counters of the warm-up put aside, in the slack of its last step (outside
         every step; cheap reads only)."""
         trace.forget_collections()
+        trace.sample_steal(first=True)
         seam.update(
             stats=(loop.stats.overruns, loop.stats.late), bits=dict(hw.bits),
             sent=dict(hw.frames_sent), received=dict(hw.frames_received),
@@ -329,6 +352,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     )
     overruns = trace.overruns(dt, hw.feedback_wait, latency_us[warm_cycles:],
                               compute_us[warm_cycles:])  # fmt: skip
+    if args.trace_out:
+        trace.save(args.trace_out, latency_us[warm_cycles:], compute_us[warm_cycles:])
     load = os.getloadavg()
     measured = max(1, min(int(stats["cycles"]), trace.capacity))
     cpu = trace.master_cpu[:measured] * 1e6
@@ -338,7 +363,13 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "master_cpu_us_p99": round(float(np.percentile(cpu, 99)), 1),
         "master_wall_us_p50": round(float(np.percentile(wall, 50)), 1),
         "master_wall_us_p99": round(float(np.percentile(wall, 99)), 1),
+        # write()'s socket sends (one record per bus), wall time per cycle
+        "send_us_p50": round(float(np.percentile(trace.send_wall[:measured], 50)) * 1e6, 1),
+        "send_us_p99": round(float(np.percentile(trace.send_wall[:measured], 99)) * 1e6, 1),
+        "send_us_max": round(float(trace.send_wall[:measured].max()) * 1e6, 1),
+        "sends_over_400us": int(np.count_nonzero(trace.send_wall[:measured] > 400e-6)),
     }
+    steal = trace.steal_total()
     cycles = max(1, int(stats["cycles"]))
     cpu_share = {
         "process_cpu_us_per_cycle": round(own_cpu / cycles * 1e6, 1),
@@ -371,7 +402,9 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     print(
         f"master read+write per cycle: CPU p50 {master['master_cpu_us_p50']:.1f} "
         f"p99 {master['master_cpu_us_p99']:.1f} us; wall p50 {master['master_wall_us_p50']:.1f} "
-        f"p99 {master['master_wall_us_p99']:.1f} us"
+        f"p99 {master['master_wall_us_p99']:.1f} us; write()'s socket sends (a record per bus) "
+        f"p50 {master['send_us_p50']:.1f} p99 {master['send_us_p99']:.1f} max "
+        f"{master['send_us_max']:.0f} us, over 0.4 ms in {master['sends_over_400us']} cycles"
     )
     emulator_text = (
         f"{cpu_share['emulator_cpu_us_per_cycle']:.1f}" if emulator_cpu is not None else "-"
@@ -379,7 +412,9 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     own = cpu_share["process_cpu_us_per_cycle"]
     print(f"CPU per cycle [us]: this process (loop, master, planner) {own:.1f}, "
           f"emulator process {emulator_text}")  # fmt: skip
-    print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} ({os.cpu_count()} CPUs)")
+    print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} ({os.cpu_count()} CPUs); "
+          f"steal time (the hypervisor's) per CPU over the run: "
+          f"{', '.join(f'{x * 1e3:.0f}' for x in steal)} ms")  # fmt: skip
     for name, figures in buses.items():
         print(f"bus {name:15s} {figures['frames_per_s']:8.1f} frames/s  "
               f"{figures['load_percent']:5.1f} % load")  # fmt: skip
@@ -435,6 +470,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         **gc_figures,
         "emulator_gc": emulator_gc,
         "overrun_causes": causes,
+        "host_overruns": sum(causes[c] for c in HOST_CAUSES),
+        "steal_s_per_cpu": steal,
         "warmup_overruns": warmup["overruns"],
         "warmup_compute_us_max": warmup["compute_us_max"],
         "warmup_seam_periods": seam_periods,
