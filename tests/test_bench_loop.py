@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 from tests.support import run_tool
 
 SHORT = ("--seconds", "0.5", "--rate", "200", "--no-realtime", "--spread-seconds", "0.2")
@@ -34,6 +36,9 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         assert all("cpu_p50" in seg for seg in run["segments"].values())
         assert len(run["load"]) == 3
         assert "late_by_more_than_half_period" in run and "overruns" in run
+        # The host's share, read beside the late cycles: steal time per CPU over the run.
+        steal = run["steal_ms_per_cpu"]
+        assert len(steal) == os.cpu_count() and all(x >= 0 for x in steal)
         pieces = run["pieces_us"]
         assert set(pieces) == {
             "read",
@@ -67,7 +72,8 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
     assert "motion start, thread CPU" in out
     assert "collision rows active in" in out and "by segment" in out
     floor = result["machine_floor"]  # as long as a run by default
-    assert set(floor) == {"late", "wake_p99_us", "wake_max_us", "fifo"}
+    assert set(floor) == {"late", "wake_p99_us", "wake_max_us", "fifo", "steal_ms_per_cpu"}
+    assert len(floor["steal_ms_per_cpu"]) == os.cpu_count()
     assert floor["late"] >= 0 and 0 <= floor["wake_p99_us"] <= floor["wake_max_us"]
     assert "machine floor: a bare SCHED_FIFO sleep loop" in out
 

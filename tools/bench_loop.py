@@ -56,7 +56,9 @@ way: it runs before the next deadline).
 Last, the machine's floor (:mod:`machine_floor`, ``--floor-seconds``, default as long as a
 run): a bare SCHED_FIFO thread sleeping to the same deadlines, nothing else. On shared
 virtual cores even it wakes late by more than half a period now and then (the host runs
-something else on the core): the loop's late cycles are read against it.
+something else on the core): the loop's late cycles are read against it. Each run and the
+floor also print the steal time of each CPU over their time (``/proc/stat``: the host ran
+something else while the VM's CPU had work; ``steal_ms_per_cpu`` in the JSON line).
 """
 
 from __future__ import annotations
@@ -80,6 +82,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 import machine_floor  # noqa: E402
 import numpy as np  # noqa: E402
+import overrun_trace  # noqa: E402
 from loop_mix import ARMS_CLOSE, WorkerLineCheck, arm_pairs, planned_segments, script  # noqa: E402
 
 from controller.contract.motion_specs import MotionSpec  # noqa: E402
@@ -343,6 +346,21 @@ def identical_work(core: MotionCore, args: argparse.Namespace) -> dict[str, floa
     return out
 
 
+def steal_now() -> np.ndarray:
+    """Each CPU's steal time so far [s] (``/proc/stat``: the time the host ran something
+    else while this VM's CPU had work; 10 ms steps; zeros where it cannot be read)."""
+    out = np.zeros(os.cpu_count() or 1)
+    try:
+        fd = os.open("/proc/stat", os.O_RDONLY)
+    except OSError:
+        return out
+    try:
+        overrun_trace.read_steal(fd, out)
+    finally:
+        os.close(fd)
+    return out
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """One run of the mix; prints its figures, returns them."""
     load = os.getloadavg()
@@ -465,11 +483,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     )
     if collector is not None:
         collector.start()
+    steal0 = steal_now()
     try:
         loop.run(max_cycles=int(args.rate * args.seconds))
     finally:
         if collector is not None:
             collector.stop()
+    steal_ms = [round(1e3 * float(x), 1) for x in steal_now() - steal0]
     book()  # the last step's (the loop ended before its slack)
     finished.set()
     thread.join()
@@ -511,7 +531,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     )
     print(
         f"cycles {stats['cycles']}, overruns {stats['overruns']}, "
-        f"late by > half a period {stats['late_by_more_than_half_period']}"
+        f"late by > half a period {stats['late_by_more_than_half_period']}; steal time per "
+        f"CPU {steal_ms} ms (the host ran something else on this VM's CPUs that long)"
     )
     if pieces:
         print(
@@ -595,6 +616,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         **stats,
         "cpu_us_p50": cpu["p50"],
         "cpu_us_p99": cpu["p99"],
+        "steal_ms_per_cpu": steal_ms,
         **plant,
         "identical_work_cpu_us": spread,
         "start_cpu_us_p50": starts["all"].get("start_first_p50", 0.0),
@@ -694,14 +716,19 @@ def main() -> int:
             f"load at the starts {[r['load'][0] for r in runs]}"
         )
     floor_seconds = args.seconds if args.floor_seconds is None else args.floor_seconds
-    floor = machine_floor.measure(args.rate, floor_seconds) if floor_seconds > 0 else None
-    if floor is not None:
+    floor = None
+    if floor_seconds > 0:
+        steal0 = steal_now()
+        floor = machine_floor.measure(args.rate, floor_seconds)
+        floor["steal_ms_per_cpu"] = [round(1e3 * float(x), 1) for x in steal_now() - steal0]
         print(
             f"machine floor: a bare SCHED_FIFO sleep loop at {args.rate:g} Hz for "
             f"{floor_seconds:g} s (fifo {floor.get('fifo')}): late by > half a period "
             f"{floor.get('late')}, wake p99 {floor.get('wake_p99_us')} us, max "
-            f"{floor.get('wake_max_us')} us (the loop's late cycles: "
-            f"{[r['late_by_more_than_half_period'] for r in runs]} per {args.seconds:g} s)"
+            f"{floor.get('wake_max_us')} us, steal time per CPU {floor['steal_ms_per_cpu']} "
+            f"ms (the loop's late cycles: "
+            f"{[r['late_by_more_than_half_period'] for r in runs]} per {args.seconds:g} s; "
+            f"steal per CPU {[r['steal_ms_per_cpu'] for r in runs]} ms)"
         )
     result = {
         "robot": args.robot,
