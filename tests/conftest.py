@@ -10,20 +10,32 @@ import pytest
 from tests.support import ROBOT_IDS
 
 
-@pytest.fixture(scope="session", autouse=True)
-def compiled_collision_kernels() -> None:
-    """Compile numba's collision kernels once, first, into its on-disk cache: daemons the
-    tests start in other processes then load them instead of each compiling them (~15 s of
-    CPU on this machine) during their start-up."""
-    from controller.model.collision_pairs import robot_distances
-    from controller.model.kinematics import Kinematics
-    from controller.model.robot import load_robot
-    from controller.qp.constraints.collision import CollisionAvoidance
+def pytest_configure(config: pytest.Config) -> None:
+    """numba's kernels compiled beside the collection (tests/jit_support.py)."""
+    from tests import jit_support
 
-    kin = Kinematics(load_robot("pa10"))
-    distances = robot_distances(kin)  # compiles the distance kernels
-    settings = kin.robot.profile.collision_avoidance
-    CollisionAvoidance(kin, distances, settings, 0.002)  # and the rows' kernel
+    config.stash[_JIT_WORKERS] = jit_support.start()
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """Workers a session did not wait for (``--collect-only``, an early end) are stopped."""
+    for worker in config.stash.get(_JIT_WORKERS, []):
+        if worker.returncode is None:  # not waited for
+            worker.kill()
+            worker.communicate()
+
+
+_JIT_WORKERS = pytest.StashKey[list[Any]]()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels(pytestconfig: pytest.Config) -> None:
+    """numba's kernels in its on-disk cache before the first test (tests/jit_support.py):
+    then neither this process nor a daemon a test starts compiles them while a test waits
+    (on a fresh clone ~60 s of CPU, and twice where two processes started at once)."""
+    from tests import jit_support
+
+    jit_support.wait(pytestconfig.stash[_JIT_WORKERS])
 
 
 @pytest.fixture(params=ROBOT_IDS)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -166,8 +167,10 @@ def test_commands_from_another_thread_land_between_cycles():
     thread.start()
     try:
         core.start(arm_move(core, 0.2))
-        while core.state != CoreState.READY:
-            pass
+        end = time.monotonic() + 60.0  # a bound, never asserted as a time
+        while core.state != CoreState.READY and time.monotonic() < end:
+            time.sleep(0.001)  # not a spin: that held the GIL from the loop's thread
+        assert core.state == CoreState.READY, core.alarms
         core.start(arm_move(core, -0.2))
         core.abort()
         assert core.motion is None

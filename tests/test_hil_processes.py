@@ -125,19 +125,17 @@ def test_daemon_and_emulator_in_two_processes(sim, env: dict[str, str], tmp_path
     log_path = tmp_path / "imotiond.log"
     with open(log_path, "w") as log:
         daemon = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
+
+        def ready() -> bool:  # its "ready" line: it listens (a channel opened before would
+            # retry with gRPC's growing back-off, seconds after that)
+            assert daemon.poll() is None, log_path.read_text()[-3000:]
+            return 'msg="ready: ' in log_path.read_text(errors="replace")
+
+        assert wait_for(ready), log_path.read_text()[-3000:]
         channel = grpc.insecure_channel(address)
         try:
             spec_a = pb_grpc.IntegratedMotionStub(channel)
-
-            def answers() -> bool:
-                assert daemon.poll() is None, log_path.read_text()[-3000:]
-                try:
-                    spec_a.GetState(pb.GetStateRequest(), timeout=1.0)
-                    return True
-                except grpc.RpcError:
-                    return False
-
-            assert wait_for(answers), log_path.read_text()[-3000:]
+            spec_a.GetState(pb.GetStateRequest(), timeout=TIMEOUT)  # answers
 
             def state() -> int:
                 return int(spec_a.GetState(pb.GetStateRequest()).status_id)

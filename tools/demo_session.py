@@ -3,9 +3,9 @@
 
 Usage: python tools/demo_session.py [--out out/demo] [--quick] [--rate HZ] [--no-frames]
 
-Starts ``imotiond --robot smartpal5 --hal sim`` as a child process on a free 127.0.0.1
-port, waits until it answers, then runs through the generated gRPC stubs (Spec A,
-IntegratedMotion): servoOn; a straight-line move of the right hand; an elbow swing with the
+Starts ``imotiond --robot smartpal5 --hal sim`` as a child process on 127.0.0.1 (the port
+picked by the system), waits until it answers, then runs through the generated gRPC stubs
+(Spec A, IntegratedMotion): servoOn; a straight-line move of the right hand; an elbow swing with the
 hand held (moveCPHoldRel); a waist bend (moveUnitAbs LUMBER); a vehicle move with both
 hands held (moveCPHoldRel vehicle_x: when the body moves, CP-hold holds both control points
 on a two-arm robot; both hands' drift is measured and printed); a move that is paused and
@@ -36,8 +36,8 @@ import argparse
 import json
 import math
 import os
+import re
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -94,20 +94,15 @@ def log(text: str) -> None:
 _print_lock = threading.Lock()
 
 
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 # ---------------------------------------------------------------------- the daemon
 class DaemonProcess:
-    """``imotiond`` as a child process (log to a file)."""
+    """``imotiond`` as a child process (log to a file), on a port the system picks."""
 
     def __init__(self, out: Path, rate: float | None, extra: list[str] | None = None):
-        self.address = f"127.0.0.1:{free_port()}"
+        self.address = ""  #: host:port, from its "ready" line (:meth:`wait_ready`)
+        self.channel: grpc.Channel | None = None
         cmd = [sys.executable, "-m", "controller.daemon.main", "--robot", ROBOT, "--hal", "sim"]
-        cmd += ["--listen", self.address]
+        cmd += ["--listen", "127.0.0.1:0"]
         if rate:
             cmd += ["--rate", f"{rate:g}"]
         cmd += extra or []
@@ -120,27 +115,33 @@ class DaemonProcess:
         self.proc = subprocess.Popen(
             cmd, cwd=ROOT, env=env, stdout=self._log, stderr=subprocess.STDOUT
         )
-        self.channel = grpc.insecure_channel(self.address)
 
-    def wait_ready(self, timeout: float = START_TIMEOUT) -> None:
+    def wait_ready(self, timeout: float = START_TIMEOUT) -> grpc.Channel:
+        """Its address from its "ready ... listening on ADDRESS" log line (it listens then),
+        and a channel to it. (A channel opened before it listens would retry with gRPC's
+        growing back-off: seconds after it is ready.)"""
         end = time.monotonic() + timeout
-        stub = pb_grpc.IntegratedMotionStub(self.channel)
+        ready = re.compile(r'msg="ready: .* listening on (\S+?)"')
         while time.monotonic() < end:
-            if self.proc.poll() is not None:
+            exited = self.proc.poll() is not None  # before the read: its last line is in
+            if found := ready.search(self.log_path.read_text(errors="replace")):
+                self.address = found.group(1)
+                self.channel = grpc.insecure_channel(self.address)
+                stub = pb_grpc.IntegratedMotionStub(self.channel)
+                stub.GetState(pb.GetStateRequest(), timeout=max(1.0, end - time.monotonic()))
+                return self.channel
+            if exited:
                 raise RuntimeError(
                     f"imotiond exited with {self.proc.returncode} before answering "
                     f"(see {self.log_path})"
                 )
-            try:
-                stub.GetState(pb.GetStateRequest(), timeout=1.0)
-                return
-            except grpc.RpcError:
-                time.sleep(0.2)
-        raise RuntimeError(f"imotiond did not answer on {self.address} in {timeout:g} s")
+            time.sleep(0.05)
+        raise RuntimeError(f"imotiond was not ready in {timeout:g} s (see {self.log_path})")
 
     def stop(self) -> tuple[int | None, float]:
         """SIGTERM; returns (exit code or None when it had to be killed, seconds taken)."""
-        self.channel.close()
+        if self.channel is not None:
+            self.channel.close()
         t0 = time.monotonic()
         code: int | None
         if self.proc.poll() is None:
@@ -671,12 +672,12 @@ def main() -> int:
     result: dict[str, Any] = {"ok": False}
     recorder = None
     try:
-        daemon.wait_ready()
+        channel = daemon.wait_ready()
         log(f"imotiond answers on {daemon.address} after {time.monotonic() - t_start:.1f} s")
         t0 = time.monotonic()
-        recorder = Recorder(daemon.channel, 50.0, t0, McapRecorder(out / "session.mcap"))
+        recorder = Recorder(channel, 50.0, t0, McapRecorder(out / "session.mcap"))
         recorder.latest()
-        session = Session(daemon.channel, recorder, t0)
+        session = Session(channel, recorder, t0)
         figures = run_script(session, args.quick)
         time.sleep(0.1)
         recorder.close()
