@@ -353,3 +353,27 @@ def test_drive_rejects_bad_node_id_and_eds(tmp_path):
     broken.write_text("[1000]\nParameterName=x\n")
     with pytest.raises(ValueError, match=r"broken\.eds"):
         EmulatedDrive("x", 1, broken, lambda i, d: None)
+
+
+def test_each_drive_gets_its_own_object_dictionary_parsed_once(tmp_path):
+    """``object_dictionary``: what canopen parses from the EDS for that node id, a separate
+    object per call (a drive writes to its own); a changed file is parsed anew."""
+    from hal.emulator.drive import _parsed, object_dictionary
+
+    eds = tmp_path / "drive.eds"
+    eds.write_bytes(DEFAULT_EDS.read_bytes())
+    parses = _parsed.cache_info().misses
+    a, b = object_dictionary(eds, 3), object_dictionary(eds, 3)
+    assert _parsed.cache_info().misses == parses + 1  # one parse for both
+    reference = canopen.import_od(str(eds), 3)
+    assert a is not b and a[0x6040] is not b[0x6040]
+    assert sorted(a.keys()) == sorted(reference.keys())
+    assert a[0x1018][1].default == reference[0x1018][1].default
+    a[0x6064].default = 12345
+    assert b[0x6064].default != 12345
+    object_dictionary(eds, 4)  # another node id: its own parse
+    assert _parsed.cache_info().misses == parses + 2
+    text = eds.read_text().replace("ProductName=", "ProductName=Changed ", 1)
+    eds.write_text(text)
+    object_dictionary(eds, 3)
+    assert _parsed.cache_info().misses == parses + 3
