@@ -4,6 +4,7 @@ cycles: no clock is asserted)."""
 from __future__ import annotations
 
 import gc
+import mmap
 import os
 import sys
 from pathlib import Path
@@ -198,8 +199,12 @@ def test_a_recorded_step_counts_its_page_faults_switches_and_cpu():
     try:
         trace.sample_steal(first=True)
         trace.begin(0)
-        block = bytearray(1 << 20)  # 256 pages to fault in
-        block[::4096] = b"x" * 256
+        # A fresh mapping inside the step: its pages fault in as they are touched, or all at
+        # the mmap where memory is locked (a heap block could come back already faulted in,
+        # and did in a full suite run).
+        with mmap.mmap(-1, 1 << 20) as block:
+            for offset in range(0, len(block), mmap.PAGESIZE):
+                block[offset] = 1
         trace.end()
         trace.sample_steal()
         assert trace.faults[0] >= 1
