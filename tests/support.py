@@ -60,16 +60,21 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def run_tool(name: str, *args: str) -> tuple[list[str], Any]:
     """``python tools/<name> args`` from the project root: its output lines and the JSON
-    object of its last line (every benchmark ends with one)."""
-    out = subprocess.run(
+    object of its last line (every benchmark ends with one). A tool that fails fails the
+    test with the end of its output (what it said before it exited)."""
+    done = subprocess.run(
         [sys.executable, str(ROOT / "tools" / name), *args],
         capture_output=True,
         text=True,
         timeout=300,
-        check=True,
         cwd=ROOT,
-    ).stdout
-    lines = out.strip().splitlines()
+    )
+    if done.returncode != 0:
+        raise AssertionError(
+            f"tools/{name} {' '.join(args)} exited {done.returncode}:\n"
+            f"{done.stdout[-3000:]}\n--- stderr ---\n{done.stderr[-3000:]}"
+        )
+    lines = done.stdout.strip().splitlines()
     return lines, json.loads(lines[-1])
 
 
