@@ -361,6 +361,11 @@ def steal_now() -> np.ndarray:
     return out
 
 
+def steal_ms_since(before: np.ndarray) -> list[float]:
+    """Each CPU's steal time [ms] since ``before`` (a :func:`steal_now`)."""
+    return [round(1e3 * float(x), 1) for x in steal_now() - before]
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """One run of the mix; prints its figures, returns them."""
     load = os.getloadavg()
@@ -489,7 +494,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     finally:
         if collector is not None:
             collector.stop()
-    steal_ms = [round(1e3 * float(x), 1) for x in steal_now() - steal0]
+    steal_ms = steal_ms_since(steal0)
     book()  # the last step's (the loop ended before its slack)
     finished.set()
     thread.join()
@@ -720,7 +725,7 @@ def main() -> int:
     if floor_seconds > 0:
         steal0 = steal_now()
         floor = machine_floor.measure(args.rate, floor_seconds)
-        floor["steal_ms_per_cpu"] = [round(1e3 * float(x), 1) for x in steal_now() - steal0]
+        floor["steal_ms_per_cpu"] = steal_ms_since(steal0)
         print(
             f"machine floor: a bare SCHED_FIFO sleep loop at {args.rate:g} Hz for "
             f"{floor_seconds:g} s (fifo {floor.get('fifo')}): late by > half a period "
