@@ -1,5 +1,5 @@
 """Test helpers: loaded robots (cached), fresh kinematics, random configurations, the
-benchmark tools run as a user runs them."""
+benchmark tools run as a user runs them, the compiled kernels' signatures."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from config import robot_ids
+from controller.model import jit
 from controller.model.kinematics import Kinematics
 from controller.model.obstacles import Obstacle
 from controller.model.robot import Robot, load_robot
@@ -92,3 +93,9 @@ def count_solves(monkeypatch: Any) -> list[int]:
 
     monkeypatch.setattr(PositionIK, "solve", counted)
     return count
+
+
+def kernel_signatures() -> dict[str, int]:
+    """How many signatures every compiled kernel loaded so far has (by qualified name):
+    equal before and after control cycles when none compiled in them."""
+    return {name: len(kernel.signatures) for name, kernel in jit.loaded_kernels().items()}

@@ -3,6 +3,8 @@ rows' range of each other (issue 14)."""
 
 from __future__ import annotations
 
+import json
+import subprocess
 import sys
 from pathlib import Path
 
@@ -108,3 +110,63 @@ def test_the_planned_mix_is_the_specs_the_gateway_would_send():
         assert motion.profile.a_max == pytest.approx(reference.profile.a_max, rel=1e-9), name
         seen.add(name)
     assert seen == {"hand line", "elbow swing", "joint ptp", "waist bend", "vehicle", ARMS_CLOSE}
+
+
+def run_the_mix_counting_compiles(robot_id: str = "smartpal5") -> dict[str, dict[str, list[int]]]:
+    """The planned mix run as the daemon runs it (the hand line and "arms close" planned in a
+    worker process, as the gateway plans in its own; every spec built and started in one
+    step, then cycled to its end): per segment, the kernels that gained a signature while it
+    was built, started and run, with their counts before and after."""
+    from loop_mix import WorkerLineCheck, planned_segments
+
+    from tests.support import kernel_signatures
+
+    robot = load_robot(robot_id)
+    dt = 2e-3
+    core = MotionCore(robot, MujocoBackend(robot, dt), dt)
+    core.servo_on()
+    planning = WorkerLineCheck(robot_id, dt)
+    compiled: dict[str, dict[str, list[int]]] = {}
+    try:
+        for name, plan in planned_segments(core, planning):
+            core.planning_kinematics()
+            spec = plan(core)
+            assert spec is not None, name
+            before = kernel_signatures()
+            core.start(spec.build_as_planned(core.kin, dt))
+            for _ in range(int(20 / dt)):
+                core.cycle()
+                if core.motion is None:
+                    break
+            assert core.state == CoreState.READY and not core.alarms, name
+            new = {k: [before.get(k, 0), n] for k, n in kernel_signatures().items()
+                   if n != before.get(k, 0)}  # fmt: skip
+            compiled[name] = compiled.get(name, {}) | new
+    finally:
+        planning.close()
+    return compiled
+
+
+def test_no_kernel_compiles_while_the_mix_is_built_started_and_run():
+    """Every motion of the mix, built from its spec and started in a step as the control
+    process does, then run to its end, adds no signature to any compiled kernel: no step
+    waits for the compiler. In a fresh process (in this one, earlier tests may have compiled
+    what the control process would compile in a step): a fresh install compiled the line's
+    kernel for the task's column-major target in the first hand line's step, a second with
+    no cycle, and the drives lost the master's heartbeat."""
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
+    root = Path(__file__).resolve().parents[1]
+    code = (
+        "import json; from tests.test_loop_mix import run_the_mix_counting_compiles as run; "
+        "print(json.dumps(run()))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=root
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    compiled = json.loads(done.stdout.strip().splitlines()[-1])
+    assert set(compiled) >= {"hand line", "elbow swing", "joint ptp", "waist bend", ARMS_CLOSE}
+    assert {name: new for name, new in compiled.items() if new} == {}

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar, cast
@@ -100,3 +101,25 @@ def jit(function: F) -> F:
     if numba is None:  # pragma: no cover
         return function
     return cast(F, numba.njit(cache=True, nogil=True, error_model="numpy")(function))
+
+
+#: The packages whose compiled kernels :func:`loaded_kernels` lists.
+PROJECT_PACKAGES = ("controller", "hal")
+
+
+def loaded_kernels() -> dict[str, Any]:
+    """Every compiled kernel of this project in the modules imported so far, by qualified
+    name (``module.function``): numba dispatchers defined at a module's top level. Their
+    ``signatures`` grow by one each time a kernel compiles for new argument types, which
+    must never happen in a control cycle (the tests compare them around cycles)."""
+    if numba is None:  # pragma: no cover
+        return {}
+    dispatcher = numba.core.registry.CPUDispatcher
+    found: dict[str, Any] = {}
+    for name, module in list(sys.modules.items()):
+        if module is None or name.split(".")[0] not in PROJECT_PACKAGES:
+            continue
+        for value in list(vars(module).values()):
+            if isinstance(value, dispatcher) and value.py_func.__module__ == name:
+                found[f"{name}.{value.py_func.__name__}"] = value
+    return found

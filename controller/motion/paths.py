@@ -295,9 +295,12 @@ class ArcPath:
         return [i / (n - 1) for i in range(n)]
 
 
-if jit.available():  # compile (or load) at import: never in a control cycle
+if jit.available():  # compile (or load) at import, never in a control cycle: for the arrays
+    # the cycles pass (numba compiles again for another layout, a second or more of CPU)
     _line_pose(np.eye(3), np.zeros(3), np.zeros(3), np.zeros(3), 0.5, np.zeros((3, 3)), np.zeros(3))
+    _target = pin.SE3.Identity()  # a task's target: Pinocchio's column-major rotation
     _line_follow(
         np.eye(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(6), 0.5, 0.5, 1.0,
-        np.zeros((3, 3)), np.zeros(3), np.zeros(6),
+        _target.rotation, _target.translation, np.zeros(6),
     )  # fmt: skip
+    del _target
