@@ -13,7 +13,9 @@ default the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod
 the master runs as on real buses, no lockstep, supervision on its own timing; ``--emulator
 thread`` puts it in this process in lockstep (one GIL for both). The loop runs the motion
 mix of tools/loop_mix.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
-back, arms close), its Cartesian moves planned and built as the daemon does. Prints cycle
+back, arms close), planned in a planning thread as the daemon's gateway plans them (the
+specs it would send) and each built and started in one loop step, as the control process
+does with a command. Prints cycle
 compute time (p50/p99/max, read + QP + write), wake latency, deadline misses (overruns),
 alarms, frames per second and load per bus (worst-case bit lengths of the frames actually
 sent and received), the master's own share per cycle (``read()`` + ``write()``: thread CPU
@@ -75,15 +77,15 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 import machine_floor  # noqa: E402
 import numpy as np  # noqa: E402
-from loop_mix import WorkerLineCheck, segments  # noqa: E402
+from loop_mix import WorkerLineCheck, planned_segments  # noqa: E402
 from overrun_trace import HOST_CAUSES, CycleTrace, print_overruns  # noqa: E402
 
+from controller.contract.motion_specs import MotionSpec  # noqa: E402
 from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
 from controller.model.alarms import AlarmType  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
-from controller.motion.motions import Motion  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
 from hal.can.backend import CanBackend  # noqa: E402
 from hal.can.setup import interpolation_period  # noqa: E402
@@ -208,13 +210,13 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             port.send_record = timed_sender(port.send_record)
     line_check = WorkerLineCheck(args.robot, dt) if args.planner == "process" else None
     refused: list[str] = []  # moves of the mix the daemon's planning refused (skipped)
-    mix = segments(core, line_check, refused)
+    mix = planned_segments(core, line_check, refused)
     done = {"motions": 0, "skipped": 0, "next": 0, "servo_on": 0}
-    ready: list[tuple[str, Motion]] = []
+    ready: list[tuple[str, MotionSpec]] = []
     running = [""]  # the segment whose motion runs: it names the alarms raised meanwhile
     by_segment: list[str] = []  # "segment: code" of every alarm and warning, in order
     finished = threading.Event()
-    wanted = threading.Event()  # the robot is idle: the planner builds the next motion
+    wanted = threading.Event()  # the robot is idle: the planner plans the next motion
 
     def planner() -> None:
         if args.planner_priority:  # SCHED_FIFO: not descheduled while it holds the GIL
@@ -229,13 +231,13 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
                 trace.planning += 1
                 core.planning_kinematics()
                 name, make = mix[done["next"] % len(mix)]
-                motion = make(core)
+                spec = make(core)
                 trace.planning += 1
                 done["next"] += 1
-                if motion is None:
+                if spec is None:
                     done["skipped"] += 1
                 else:
-                    ready.append((name, motion))
+                    ready.append((name, spec))
 
     warm_cycles = int(rate * WARMUP_S)
     seam: dict[str, Any] = {}  # the counters where the measured run begins
@@ -261,8 +263,10 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             )
         if core.state == CoreState.READY and core.motion is None:
             if ready:
-                running[0], motion = ready.pop()
-                core.start(motion)
+                running[0], spec = ready.pop()
+                # As the control process starts a command's motion: built from its spec at
+                # the configuration it was planned from, and started, in this step.
+                core.start(spec.build_as_planned(core.kin, core.dt))
                 trace.motion_started()
                 done["motions"] += 1
             elif not wanted.is_set():
