@@ -24,6 +24,8 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         "overruns",
         "start_cpu_us_p50",
         "start_cpu_us_max",
+        "start_build_us_p50",
+        "starts_over_period",
         "plant_us_p99",
         "compute_plus_plant_us_p99",
     }
@@ -66,10 +68,13 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         starts = run["starts"]["all"]  # 0.5 s at 200 Hz: the mix starts a motion or more
         assert starts["starts"] >= 1 and run["start_cpu_us_p50"] == starts["start_first_p50"]
         assert 0 < starts["start_p50"] and 0 < starts["first_p50"]
+        # Built in the slack of the step that accepted it, as the control process does.
+        assert 0 < starts["build_p50"] == run["start_build_us_p50"]
+        assert 0 <= run["starts_over_period"] <= starts["starts"]
         assert starts["start_first_p50"] <= starts["start_first_max"]
     assert "piece medians by segment" in out and "identical work" in out
     assert "per cycle [us]" in out and "median of 2 runs" in out and "plant_us" in out
-    assert "motion start, thread CPU" in out
+    assert "motion start: build in the slack" in out
     assert "collision rows active in" in out and "by segment" in out
     floor = result["machine_floor"]  # as long as a run by default
     assert set(floor) == {"late", "wake_p99_us", "wake_max_us", "fifo", "steal_ms_per_cpu"}

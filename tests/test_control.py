@@ -50,7 +50,7 @@ def step(c: Controller, n: int = 1) -> None:
 def run_until_idle(c: Controller, limit: int = 5000) -> None:
     for _ in range(limit):
         step(c)
-        if not c.core.is_moving and not c.queue:
+        if not c.core.is_moving and not c.queue and c.pending is None:
             return
     raise AssertionError("still moving")
 
@@ -137,6 +137,7 @@ def test_the_checked_plan_is_the_one_executed(ctl: Controller):
     planned[0] += 1e-3  # within PLAN_TOLERANCE of the measured state
     spec.planned_from = planned
     ctl.cmd_start(spec)
+    step(ctl)  # built (no slack here: at the start), started after the cycle
     motion = ctl.core.motion
     assert motion is not None
     np.testing.assert_array_equal(motion.path.start, planned[[0]])  # type: ignore[attr-defined]
@@ -190,16 +191,20 @@ def test_an_answer_comes_after_the_snapshot_shows_it(ctl: Controller):
         answered_at_publish.append(request.done.is_set())
 
     ctl.publish = spy  # type: ignore[method-assign]
-    step(ctl)
+    step(ctl)  # accepted: shown running already (a queue never shows ready in between)
+    assert not request.done.is_set() and read(ctl).moving and ctl.core.motion is None
+    assert read(ctl).core_state == CoreState.BUSY
+    step(ctl)  # started
     assert request.ok and request.done.is_set()
-    assert answered_at_publish == [False]
+    assert answered_at_publish == [False, False]
     assert read(ctl).moving
 
 
-def test_a_started_motion_runs_its_first_cycle_in_the_next_step(ctl: Controller):
-    """The command builds and starts its motion right after this step's cycle; the motion's
-    first cycle (the dearest one) is the next step's: one step never carries both. Urgent
-    commands still act before the cycle."""
+def test_a_start_is_spread_over_three_steps_its_motion_built_in_the_slack(ctl: Controller):
+    """A motion command is accepted after a step's cycle, its motion built in that step's
+    slack, started after the next step's cycle (answered then) and run from the step after:
+    no step carries two of the build, the start and the motion's first (dearest) cycle.
+    Urgent commands still act before the cycle."""
     ready(ctl)
     order: list[str] = []
     execute, cycle = ctl._execute, ctl.core.cycle
@@ -218,10 +223,94 @@ def test_a_started_motion_runs_its_first_cycle_in_the_next_step(ctl: Controller)
     ctl.inbox.put(start)
     ctl.urgent.put(Request("stop", {}))
     step(ctl)
-    assert order == ["stop", "cycle", "start"] and start.ok
-    assert read(ctl).moving  # the answer's snapshot shows the motion
+    assert order == ["stop", "cycle", "start"]
+    assert ctl.pending is not None and not ctl.pending.built and ctl.core.motion is None
+    assert not start.done.is_set()
+    ctl._slack(10**9)
+    assert ctl.pending is not None and ctl.pending.motion is not None  # built in the slack
+    motion = ctl.pending.motion
+    step(ctl)
+    assert order[3:] == ["cycle"] and ctl.core.motion is motion  # started after the cycle
+    assert start.ok and start.done.is_set() and read(ctl).moving
     step(ctl)
     assert order[-1] == "cycle with a motion"
+
+
+def test_commands_behind_an_accepted_start_wait_for_it(ctl: Controller):
+    """A command that arrives behind an accepted start acts once the motion started: a
+    second start is refused as when busy, a setting as while moving."""
+    ready(ctl)
+    first = Request("start", {"spec": j1_move(ctl, 0.4)})
+    second = Request("start", {"spec": j1_move(ctl, 0.2)})
+    ctl.inbox.put(first)
+    ctl.inbox.put(second)
+    step(ctl)
+    assert ctl.pending is not None and not second.done.is_set()
+    assert refused(ctl.cmd_start, j1_move(ctl, 0.1)).code == ReturnCode.STATUS_ERR
+    assert refused(ctl.cmd_reset_original_frame).code == ReturnCode.STATUS_ERR
+    step(ctl)
+    assert first.ok and first.done.is_set()
+    assert second.done.is_set() and not second.ok and second.code == ReturnCode.STATUS_ERR
+    assert ctl.started == 1
+
+
+@pytest.mark.parametrize("name", ["stop", "abort", "pause", "servo_off"])
+def test_an_urgent_command_after_an_accepted_start_acts_on_its_motion(ctl: Controller, name: str):
+    """Commands act in the order they were accepted: an urgent command that arrives while a
+    start waits for the next step starts its motion first, then acts on it."""
+    ready(ctl)
+    start = Request("start", {"spec": j1_move(ctl, 0.4)})
+    ctl.inbox.put(start)
+    step(ctl)
+    urgent = Request(name, {})
+    ctl.urgent.put(urgent)
+    step(ctl)
+    assert start.ok and urgent.ok and ctl.started == 1
+    run_until_idle(ctl)
+    expected = {"pause": CoreState.PAUSED, "servo_off": CoreState.SERVO_OFF}
+    assert ctl.core.state == expected.get(name, CoreState.READY)
+
+
+def test_a_start_whose_motion_cannot_be_built_answers_value_err(ctl: Controller):
+    class Broken(JointMoveSpec):
+        def build(self, kin: Kinematics, dt: float) -> Motion:
+            raise ValueError("no time law")
+
+    ready(ctl)
+    q = ctl.core.kin.q.copy()
+    broken = Broken(np.array([0]), np.array([0.0]), np.array([1.0]), np.array([1.0]),
+                    planned_from=q.copy(), label="broken")  # fmt: skip
+    start = Request("start", {"spec": broken})
+    ctl.inbox.put(start)
+    step(ctl)
+    ctl._slack(10**9)
+    step(ctl)
+    assert start.done.is_set() and not start.ok and start.value is None
+    assert start.code == ReturnCode.VALUE_ERR and "no time law" in start.message
+    assert ctl.core.state == CoreState.READY and ctl.core.motion is None and not ctl.core.alarms
+    np.testing.assert_array_equal(ctl.core.kin.q, q)
+
+
+def test_an_alarm_before_the_start_refuses_it(ctl: Controller):
+    """A fault in the cycle between acceptance and start: the start answers STATUS_ERR."""
+    ready(ctl)
+    start = Request("start", {"spec": j1_move(ctl, 0.4)})
+    ctl.inbox.put(start)
+    step(ctl)
+    ctl.hw.inject_fault(HardwareFault(int(AlarmCode.DRIVE_FAULT), "J3", "test"))  # type: ignore[attr-defined]
+    step(ctl)
+    assert start.done.is_set() and not start.ok and start.code == ReturnCode.STATUS_ERR
+    assert "not started" in start.message and ctl.started == 0
+
+
+def test_a_shutdown_answers_an_accepted_start(ctl: Controller):
+    ready(ctl)
+    start = Request("start", {"spec": j1_move(ctl, 0.4)})
+    ctl.inbox.put(start)
+    ctl.shutdown_requested.set()
+    step(ctl)
+    assert start.done.is_set() and not start.ok and start.code == ReturnCode.STATUS_ERR
+    assert "stopping" in start.message and ctl.pending is None
 
 
 def test_submit_times_out_without_a_loop(ctl: Controller):
@@ -300,7 +389,9 @@ def test_urgent_commands_overtake_waiting_ones(ctl: Controller):
     ctl._execute = spy  # type: ignore[method-assign]
     step(ctl)
     assert order == ["stop", "start"]
-    assert start.ok and stop.ok and start.done.is_set() and stop.done.is_set()
+    assert stop.ok and stop.done.is_set() and not start.done.is_set()
+    step(ctl)  # the start's motion started, answered
+    assert start.ok and start.done.is_set()
 
 
 @pytest.mark.parametrize("name", ["stop", "pause", "abort", "servo_off"])

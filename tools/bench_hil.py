@@ -14,8 +14,9 @@ the master runs as on real buses, no lockstep, supervision on its own timing; ``
 thread`` puts it in this process in lockstep (one GIL for both). The loop runs the motion
 mix of tools/loop_mix.py (hand lines, elbow swings, joint PTP, waist bend, vehicle out and
 back, arms close), planned in a planning thread as the daemon's gateway plans them (the
-specs it would send) and each built and started in one loop step, as the control process
-does with a command. Prints cycle
+specs it would send) and each started as the control process starts a command
+(:mod:`controller.control.pending_start`: accepted in a step, built in its slack, started in
+the next step). Prints cycle
 compute time (p50/p99/max, read + QP + write), wake latency, deadline misses (overruns),
 alarms, frames per second and load per bus (worst-case bit lengths of the frames actually
 sent and received), the master's own share per cycle (``read()`` + ``write()``: thread CPU
@@ -84,6 +85,7 @@ from controller.contract.motion_specs import MotionSpec  # noqa: E402
 from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
+from controller.control.pending_start import PendingStart  # noqa: E402
 from controller.model.alarms import AlarmType  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
@@ -213,6 +215,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     mix = planned_segments(core, line_check, refused)
     done = {"motions": 0, "skipped": 0, "next": 0, "servo_on": 0}
     ready: list[tuple[str, MotionSpec]] = []
+    pending: list[tuple[str, PendingStart]] = []  # accepted, built in the slack, started next
     running = [""]  # the segment whose motion runs: it names the alarms raised meanwhile
     by_segment: list[str] = []  # "segment: code" of every alarm and warning, in order
     finished = threading.Event()
@@ -261,26 +264,33 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
             by_segment.extend(
                 f"{running[0] or '-'}: 0x{a.code:03X}" for a in core.alarms[len(by_segment) :]
             )
-        if core.state == CoreState.READY and core.motion is None:
-            if ready:
-                running[0], spec = ready.pop()
-                # As the control process starts a command's motion: built from its spec at
-                # the configuration it was planned from, and started, in this step.
-                core.start(spec.build_as_planned(core.kin, core.dt))
+        # As the control process starts a command's motion: accepted after a step's cycle,
+        # built from its spec in that step's slack, started after the next step's cycle.
+        if pending:
+            running[0], accepted = pending.pop()
+            if core.state == CoreState.READY and core.motion is None:
+                core.start(accepted.take(core.kin, core.dt))
                 trace.motion_started()
                 done["motions"] += 1
+        elif core.state == CoreState.READY and core.motion is None:
+            if ready:
+                name, spec = ready.pop()
+                pending.append((name, PendingStart(spec)))
             elif not wanted.is_set():
                 wanted.set()
         trace.end()
         return core.state != CoreState.ALARM
 
     def slack(ns: int) -> None:
+        t0 = time.monotonic_ns()
+        if pending:  # the motion accepted in the step, as the daemon's slack builds it
+            pending[0][1].build(core.kin, core.dt)
         if loop.stats.cycles == warm_cycles:  # after the warm-up's last step
             start_measuring()
         else:
             trace.sample_steal()
-        if collector is not None:
-            collector(ns)
+        if collector is not None:  # what the build left
+            collector(ns - (time.monotonic_ns() - t0))
 
     def start_measuring() -> None:
         """The counters of the warm-up put aside, in the slack of its last step (outside

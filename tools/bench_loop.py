@@ -15,9 +15,11 @@ makes each segment's spec (:func:`loop_mix.planned_segments`: what the gateway s
 control process, with the configuration it was planned from) on the core's planning copy of
 the kinematics, the hand line's and arms close's reachability checks (the only planning that
 costs milliseconds) in a worker process, as the gateway plans in its own process
-(``--planner thread``: in the planner thread, sharing the loop's GIL). The loop builds the
-motion from its spec and starts it in one step, as the control process does with a command
-(``MotionSpec.build_as_planned``, then ``core.start``). Each cycle also publishes the
+(``--planner thread``: in the planner thread, sharing the loop's GIL). The loop starts each
+spec as the control process starts a command (:mod:`controller.control.pending_start`):
+accepted after a step's cycle, its motion built in that step's slack
+(``MotionSpec.build_as_planned``), started after the next step's cycle (``core.start``),
+its first cycle in the step after. Each cycle also publishes the
 snapshot, as the control process does. The garbage collector runs in the
 loop's slack as in the daemon (``--gc automatic``: CPython's own collection).
 
@@ -30,10 +32,11 @@ per cycle [µs]: read, kinematics, motion, collision (distances and rows), QP bu
 write, publish, other; and each piece's median per segment), the share of cycles with
 collision rows active (in the whole run and during "arms close", where also the share with
 rows between the two arms), the compute time of the cycles with rows active, and what a
-motion start costs: the thread CPU time of the start (the motion built from its spec,
-prepared, and ``core.start``) plus the first cycle of the new motion, p50/max per kind of
-motion next to the later cycles of the same kind, and the first cycle's pieces against the
-later cycles'. With
+motion start costs: the build in the slack (wall clock), the thread CPU time of the start
+(``core.start``, and the build where no slack did it) plus the first cycle of the new
+motion, p50/max per kind of motion next to the later cycles of the same kind, the starts
+with one of their three periods (accepting step and slack with the build, start step,
+first cycle) over the period, and the first cycle's pieces against the later cycles'. With
 ``--runs N`` the run repeats N times and the medians of their compute p50/p99, start costs
 and late counts follow. The last line is a JSON object.
 
@@ -89,6 +92,7 @@ from controller.contract.motion_specs import MotionSpec  # noqa: E402
 from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
+from controller.control.pending_start import PendingStart  # noqa: E402
 from controller.control.publisher import SnapshotPublisher  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
 from controller.motion.motions import Motion  # noqa: E402
@@ -105,7 +109,7 @@ def _patch(obj: Any, name: str, value: Any) -> None:
 
 PIECES = ("read", "kinematics", "motion", "collision", "qp_build", "qp_solve", "write", "publish")
 #: Extra columns of :attr:`Breakdown.rows` after the pieces and "other".
-COMPUTE, ROWS, ARM_ROWS, SEGMENT, CPU, START, PLANT = range(len(PIECES) + 1, len(PIECES) + 8)
+COMPUTE, ROWS, ARM_ROWS, SEGMENT, CPU, START, PLANT, BUILD = range(len(PIECES) + 1, len(PIECES) + 9)
 
 
 class Breakdown:
@@ -115,7 +119,7 @@ class Breakdown:
     def __init__(self, core: MotionCore, capacity: int, wrap: bool = True):
         """``wrap=False``: no timers (the pieces stay 0), only the compute time and rows."""
         self.now = dict.fromkeys(PIECES, 0)
-        self.rows = np.zeros((capacity, PLANT + 1))
+        self.rows = np.zeros((capacity, BUILD + 1))
         self.n = 0
         self.wrap = wrap
         if wrap:
@@ -179,19 +183,23 @@ class Breakdown:
         segment: int,
         start_ns: int = 0,
         plant_ns: int = 0,
+        build_ns: int = 0,
     ) -> None:
         """Close the cycle: wall-clock ``compute_ns`` and thread CPU ``cpu_ns`` of the step,
         ``rows`` collision rows, ``arm_rows`` some between the two arms, ``segment``: index
         of the running motion's segment (-1: none), ``start_ns``: thread CPU of the
-        motion start this step made (built from its spec, ``core.start``; 0: none; part of
-        ``cpu_ns``), ``plant_ns``: the
-        stand-in's physics step after it, in the slack (``hw.advance()``, wall clock)."""
+        motion start this step made (``core.start``; 0: none; part of ``cpu_ns``),
+        ``plant_ns``: the stand-in's physics step after it, in the slack (``hw.advance()``,
+        wall clock), ``build_ns``: the build of the motion it accepted, in the slack after
+        the physics step (wall clock; 0: none)."""
         if self.n < len(self.rows):
             row = self.rows[self.n]
             for i, name in enumerate(PIECES):
                 row[i] = self.now[name]
             row[len(PIECES)] = compute_ns - sum(self.now.values())
-            row[COMPUTE:] = (compute_ns, rows, arm_rows, segment, cpu_ns, start_ns, plant_ns)
+            row[COMPUTE:] = (
+                compute_ns, rows, arm_rows, segment, cpu_ns, start_ns, plant_ns, build_ns
+            )  # fmt: skip
             self.n += 1
         for name in PIECES:
             self.now[name] = 0
@@ -221,16 +229,25 @@ class Breakdown:
         return out
 
     def start_summary(self, names: list[str], period_us: float) -> dict[str, Any]:
-        """What a motion start costs, per segment and over all starts: thread CPU [µs] of
-        the start (built from its spec, ``core.start``) plus the first cycle of the new
-        motion (``start_first``: p50, max), each alone (``start``, ``first``: p50), against
-        the segment's later cycles (``steady``: p50); ``over_period``: starts whose start
-        step or first cycle took longer than the period on the wall clock."""
+        """What a motion start costs, per segment and over all starts: the build in the
+        slack after the accepting step (``build``: p50, wall clock [µs]), thread CPU [µs] of
+        the start (``core.start``) plus the first cycle of the new motion (``start_first``:
+        p50, max), each alone (``start``, ``first``: p50), against the segment's later
+        cycles (``steady``: p50); ``over_period``: starts with a period over the period on
+        the wall clock (the accepting step with its slack's physics step and build, the
+        start step, or the first cycle)."""
         rows = self.rows[: self.n]
         at = np.flatnonzero(rows[:, START] > 0)
-        at = at[at + 1 < len(rows)]  # the first cycle of the motion is the next step
+        at = at[(at >= 1) & (at + 1 < len(rows))]  # accepted a step before, run the next
         start, first = rows[at, START] / 1e3, rows[at + 1, CPU] / 1e3
-        late = (rows[at, COMPUTE] > period_us * 1e3) | (rows[at + 1, COMPUTE] > period_us * 1e3)
+        build = rows[at - 1, BUILD] / 1e3
+        period_ns = period_us * 1e3
+        accepting = rows[at - 1, COMPUTE] + rows[at - 1, PLANT] + rows[at - 1, BUILD]
+        late = (
+            (accepting > period_ns)
+            | (rows[at, COMPUTE] > period_ns)
+            | (rows[at + 1, COMPUTE] > period_ns)
+        )
         steady = np.ones(len(rows), dtype=bool)
         steady[at] = steady[at + 1] = False
 
@@ -242,6 +259,7 @@ class Breakdown:
                 "starts": len(both),
                 "start_first_p50": round(float(np.median(both)), 1),
                 "start_first_max": round(float(both.max()), 1),
+                "build_p50": round(float(np.median(build[pick])), 1),
                 "start_p50": round(float(np.median(start[pick])), 1),
                 "first_p50": round(float(np.median(first[pick])), 1),
                 "steady_p50": _percentiles(rows[cycles, CPU] / 1e3)["p50"],
@@ -379,6 +397,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     close = names.index(ARMS_CLOSE) if ARMS_CLOSE in names else -2
     done = {"motions": 0, "skipped": 0, "next": 0}
     ready: list[tuple[int, MotionSpec]] = []
+    pending: list[tuple[int, PendingStart]] = []  # accepted, built in the slack, started next
     finished = threading.Event()
     collision = core.collision
     arm_rows = (
@@ -416,7 +435,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     breakdown = Breakdown(core, capacity, wrap=not args.no_breakdown)
 
     def publish() -> None:
-        publisher.publish(len(ready), False, 0, 0)
+        publisher.publish(len(ready), False, 0, 0, bool(pending))
 
     if not args.no_breakdown:
         publish = breakdown._timed("publish", publish)
@@ -428,15 +447,18 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         core.cycle()
         if core.motion is None:
             segment["now"] = -1
-        if ready and core.state == CoreState.READY and core.motion is None:
-            k, spec = ready.pop()
+        # As the control process starts a command's motion: accepted after a step's cycle,
+        # built from its spec in that step's slack, started after the next step's cycle.
+        if pending:
+            k, accepted = pending.pop()
             s0 = time.thread_time_ns()
-            # As the control process starts a command's motion: built from its spec at the
-            # configuration it was planned from, prepared and started in this step.
-            core.start(spec.build_as_planned(core.kin, core.dt))
+            core.start(accepted.take(core.kin, core.dt))
             start_cpu = max(1, time.thread_time_ns() - s0)
             segment["now"] = names.index(names[k])  # the segment's first entry
             done["motions"] += 1
+        elif ready and core.state == CoreState.READY and core.motion is None:
+            k, spec = ready.pop()
+            pending.append((k, PendingStart(spec)))
         elif not ready and core.motion is None and not idle.is_set():
             idle.set()
         publish()
@@ -446,10 +468,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     last: list[int] = []  # the step's figures, booked after it (outside its compute time)
 
-    def book(plant_ns: int = 0) -> None:
+    def book(plant_ns: int = 0, build_ns: int = 0) -> None:
         """The last step's row of the breakdown and the collision figures: the benchmark's
         own work, after the loop measured the step (the daemon has none of it);
-        ``plant_ns``: the physics step after it [ns]."""
+        ``plant_ns``: the physics step after it, ``build_ns``: the build of the motion it
+        accepted [ns]."""
         if not last:
             return
         compute, cpu, start_cpu, now = last
@@ -461,12 +484,16 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 between = bool(n_rows and arm_rows[collision.pairs].any())
                 d = collision.distances.distances[arm_rows]
                 closest["arms"] = min(closest["arms"], float(d.min(initial=math.inf)))
-        breakdown.end_cycle(compute, cpu, n_rows, between, now, start_cpu, plant_ns)
+        breakdown.end_cycle(compute, cpu, n_rows, between, now, start_cpu, plant_ns, build_ns)
 
     def slack(left_ns: int) -> None:
         t0 = time.perf_counter_ns()
         core.hw.advance()  # the physics step, as the daemon's slack takes it
-        book(time.perf_counter_ns() - t0)
+        t1 = time.perf_counter_ns()
+        if pending:  # then the motion accepted in the step, as the daemon's slack builds it
+            pending[0][1].build(core.kin, core.dt)
+        t2 = time.perf_counter_ns()
+        book(t1 - t0, t2 - t1)
         if collector is not None:  # the garbage collector gets what the booking left
             collector(left_ns - (time.perf_counter_ns() - t0))
 
@@ -581,12 +608,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             f"(the mix: {cpu['p99'] / cpu['p50']:.2f}): the machine's spread"
         )
     print(
-        "motion start, thread CPU [us] of the start (build + core.start) + the first cycle, "
-        "p50/max (start, first cycle p50; the segment's later cycles p50; starts with a step "
-        "over the period): "
+        "motion start: build in the slack p50 [us, wall]; thread CPU [us] of the start "
+        "(core.start) + the first cycle p50/max (start, first cycle p50; the segment's later "
+        "cycles p50; starts with a period over the period): "
         + ", ".join(
-            f"{name} {v['start_first_p50']:.0f}/{v['start_first_max']:.0f} ({v['start_p50']:.0f}"
-            f" + {v['first_p50']:.0f}; {v['steady_p50']:.0f}; {v['over_period']}/{v['starts']})"
+            f"{name} {v['build_p50']:.0f}; {v['start_first_p50']:.0f}/"
+            f"{v['start_first_max']:.0f} ({v['start_p50']:.0f} + {v['first_p50']:.0f}; "
+            f"{v['steady_p50']:.0f}; {v['over_period']}/{v['starts']})"
             for name, v in starts.items()
             if v["starts"]
         )
@@ -626,6 +654,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "identical_work_cpu_us": spread,
         "start_cpu_us_p50": starts["all"].get("start_first_p50", 0.0),
         "start_cpu_us_max": starts["all"].get("start_first_max", 0.0),
+        "start_build_us_p50": starts["all"].get("build_p50", 0.0),
+        "starts_over_period": starts["all"].get("over_period", 0),
         "starts": starts,
         "pieces_us": pieces,
         "collision": rows,
@@ -705,6 +735,8 @@ def main() -> int:
         "overruns",
         "start_cpu_us_p50",
         "start_cpu_us_max",
+        "start_build_us_p50",
+        "starts_over_period",
     )
     median = {k: statistics.median(r[k] for r in runs) for k in keys}
     for k in ("plant_us", "compute_plus_plant_us"):
@@ -713,8 +745,10 @@ def main() -> int:
         print(
             f"median of {args.runs} runs: compute p50 {median['compute_us_p50']:.1f} us, "
             f"p99 {median['compute_us_p99']:.1f} us (CPU p50 {median['cpu_us_p50']:.1f}, "
-            f"p99 {median['cpu_us_p99']:.1f} us; motion start + first cycle CPU p50 "
-            f"{median['start_cpu_us_p50']:.1f}, max {median['start_cpu_us_max']:.1f} us; the "
+            f"p99 {median['cpu_us_p99']:.1f} us; a motion's build in the slack p50 "
+            f"{median['start_build_us_p50']:.1f} us, its start + first cycle CPU p50 "
+            f"{median['start_cpu_us_p50']:.1f}, max {median['start_cpu_us_max']:.1f} us, starts "
+            f"with a period over the period {median['starts_over_period']:g}; the "
             f"physics step in the slack p99 {median['plant_us_p99']:.1f} us, compute + it p99 "
             f"{median['compute_plus_plant_us_p99']:.1f} us), late by > half a period "
             f"{median['late_by_more_than_half_period']:g}, overruns {median['overruns']:g}; "

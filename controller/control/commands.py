@@ -17,6 +17,7 @@ from controller.contract.motion_specs import CartesianBox, JointStreamSpec, Moti
 from controller.control.core import MotionCore
 from controller.control.events import LoopEvents
 from controller.control.motion_queue import MotionQueue
+from controller.control.pending_start import PendingStart
 from controller.control.publisher import SnapshotPublisher
 from controller.control.soft_limits import CartesianSoftLimits
 from controller.errors import Refused
@@ -47,8 +48,12 @@ class Commands:
     publisher: SnapshotPublisher
     dt: float
     started: int
+    #: A start accepted and not yet started (:mod:`controller.control.pending_start`).
+    pending: PendingStart | None
 
     def _start(self, spec: MotionSpec) -> None:
+        """Accept ``spec``: its motion is built in the loop's slack and started in the next
+        step, which answers (a build that fails answers VALUE_ERR there)."""
         raise NotImplementedError
 
     # ------------------------------------------------------------------ power
@@ -115,20 +120,21 @@ class Commands:
                     f"the robot is {state.text}: a motion command is accepted only when "
                     "ready (this interface does not queue); wait, stop or resume first",
                 )
+            if self.pending is not None:
+                raise Refused(
+                    ReturnCode.STATUS_ERR,
+                    f"{self.pending.spec.label} is starting: a motion command is accepted "
+                    "only when ready (this interface does not queue)",
+                )
             self._check_plan(spec)
-            self._start_now(spec)
+            self._start(spec)
             return "started"
-        if state == CoreState.READY and self.core.motion is None and not self.queue:
-            self._start_now(spec)
+        idle = self.core.motion is None and self.pending is None and not self.queue
+        if state == CoreState.READY and idle:
+            self._start(spec)
             return "started"
         self.queue.append(spec)
         return "queued"
-
-    def _start_now(self, spec: MotionSpec) -> None:
-        try:
-            self._start(spec)
-        except ValueError as exc:  # e.g. a finite but absurd target no time law can cover
-            raise Refused(ReturnCode.VALUE_ERR, f"{spec.label}: cannot be planned: {exc}") from None
 
     def _check_plan(self, spec: MotionSpec) -> None:
         if spec.planned_from is None:
@@ -155,7 +161,7 @@ class Commands:
                 f"{what} is not allowed while a motion is paused: stop it (or resume it and "
                 "wait for its end) first",
             )
-        if self.core.is_moving or self.queue:
+        if self.core.is_moving or self.queue or self.pending is not None:
             raise Refused(ReturnCode.STATUS_ERR, f"{what} is not allowed while the robot moves")
 
     def cmd_reset_original_frame(self) -> None:

@@ -9,12 +9,14 @@ own queue, emptied first: they overtake every other waiting command.
 
 Per cycle::
 
-    urgent commands → other commands → MotionCore.cycle() → queue / soft-limit supervision
-    → snapshot (:mod:`controller.control.publisher`) → answers
+    urgent commands → MotionCore.cycle() → the start accepted last step → other commands
+    → queue / soft-limit supervision → snapshot (:mod:`controller.control.publisher`)
+    → answers
 
 and in the time left before the next deadline (the loop's slack): the hardware's deferred
 work (:meth:`~hal.interface.HardwareInterface.advance`: the MuJoCo stand-in's physics step),
-then the garbage collector.
+the motion of a start accepted in this step built (:mod:`controller.control.pending_start`:
+a start is spread over three steps), then the garbage collector.
 
 Commands (:mod:`controller.control.commands`) answer with a value or raise an
 :class:`~controller.errors.ImotionError` carrying its return code.
@@ -40,13 +42,13 @@ from controller.control.events import LoopEvents
 from controller.control.loop import FixedRateLoop
 from controller.control.motion_queue import MotionQueue
 from controller.control.overruns import OverrunWatch
+from controller.control.pending_start import PendingStart
 from controller.control.publisher import SnapshotPublisher
 from controller.control.soft_limits import CartesianSoftLimits
 from controller.errors import ImotionError, Refused
 from controller.model.alarms import AlarmCode
 from controller.model.obstacles import Obstacle
 from controller.model.robot import Robot
-from controller.motion.motions import Motion
 from controller.vocabulary import CoreState, ReturnCode
 from hal.interface import HardwareInterface
 
@@ -107,6 +109,7 @@ class Controller(Commands):
         )
         self.started = 0
         self.finished = 0
+        self.pending: PendingStart | None = None
         self._running_motion: object = None
         #: Operator log of state changes, motions and alarms (queued, never written here).
         self.events = LoopEvents()
@@ -128,14 +131,19 @@ class Controller(Commands):
         executed: list[Request] = []
         try:
             # Urgent commands (stop, pause, servo off, ...) act in this cycle; the others
-            # right after it: a motion command builds and starts its motion here and the
-            # motion's first cycle (the dearest) runs in the next step, so one step never
-            # carries both (a start at 1 kHz overran the period before). Their answer goes
-            # out after this step's snapshot either way.
+            # right after it. A motion command accepted there has its motion built in this
+            # step's slack and started after the next step's cycle; its first cycle (the
+            # dearest) runs in the step after: no step carries two of them (one that built
+            # and started a motion at 1 kHz overran the period in a third of the starts).
+            # Answers go out after the step's snapshot.
+            if self.pending is not None and not self.urgent.empty():
+                self._start_pending(executed)  # accepted before them: started first
             self._execute_all(self.urgent, executed)
             elapsed = None if self._last_t is None else t - self._last_t
             self._last_t = t
             self.core.cycle(elapsed)
+            if self.pending is not None:
+                self._start_pending(executed)
             self._execute_all(self.inbox, executed)
             self.overruns.observe(t)
             self._after_cycle()
@@ -151,22 +159,28 @@ class Controller(Commands):
 
     def _slack(self, left_ns: int) -> None:
         """After each step, before the next deadline: the hardware's deferred work (the
-        stand-in's physics step), then the garbage collector in what is left."""
+        stand-in's physics step), the motion of a start accepted in the step, then the
+        garbage collector in what is left."""
         start = time.monotonic_ns()
         self.hw.advance()
+        if self.pending is not None:
+            self.pending.build(self.core.kin, self.dt)
         if self.collector is not None:
             self.collector(left_ns - (time.monotonic_ns() - start))
 
     def _execute_all(self, inbox: queue.SimpleQueue[Request], executed: list[Request]) -> None:
         if inbox.empty():  # most cycles: no command (and no exception raised to see it)
             return
-        while True:
+        while self.pending is None:  # behind an accepted start, the others wait for it
             try:
                 request = inbox.get_nowait()
             except queue.Empty:
                 return
             self._execute(request)
-            executed.append(request)
+            if self.pending is not None:  # this request's start: answered once started
+                self.pending.request = request
+            else:
+                executed.append(request)
 
     def run(self) -> None:
         """Run the loop in the calling thread until shutdown."""
@@ -217,31 +231,54 @@ class Controller(Commands):
         self.events.observe(core)
         if core.state in (CoreState.SERVO_OFF, CoreState.ALARM):
             self.queue.clear()
-        elif core.state == CoreState.READY and core.motion is None and self.queue:
-            spec = self.queue.pop()
-            try:
-                self._start(spec)
-            except Exception as exc:
-                self.queue.clear()
-                core.raise_alarm(
-                    AlarmCode.TRAJECTORY_FAILURE, "queue", f"queued {spec.label}: {exc}"
-                )
+        elif (
+            core.state == CoreState.READY
+            and core.motion is None
+            and self.pending is None
+            and self.queue
+        ):
+            self._start(self.queue.pop())  # built in the slack, started next step
         if self.soft_limits and core.state == CoreState.BUSY:
             self.soft_limits.check()
 
     def _start(self, spec: MotionSpec) -> None:
-        self.core.start(self._instantiate(spec))
-        self._running_motion = self.core.motion
-        self.started += 1
-        self.events.motion_started(spec.label, self.core.motion)
+        self.pending = PendingStart(spec)
 
-    def _instantiate(self, spec: MotionSpec) -> Motion:
-        """The motion the gateway checked: built at the configuration it was planned from
-        (``spec.planned_from``; the JARA queue's planned end for a queued motion), so its
-        path and time law are the checked ones, not a re-plan from where the robot happens
-        to be. The motion then runs on the live kinematics. A motion started at once was
-        refused before this if the robot moved more than PLAN_TOLERANCE since planning."""
-        return spec.build_as_planned(self.core.kin, self.dt)
+    def _start_pending(self, executed: list[Request]) -> None:
+        """Start the motion of the accepted start (built in the last slack, or now) and
+        answer its command; a motion from the queue that cannot start raises an alarm."""
+        pending, self.pending = self.pending, None
+        if pending is None:
+            return
+        core, spec, request = self.core, pending.spec, pending.request
+        try:
+            motion = pending.take(core.kin, self.dt)
+            if core.state != CoreState.READY or core.motion is not None:
+                raise Refused(
+                    ReturnCode.STATUS_ERR,
+                    f"{spec.label}: not started: the robot became {core.state.text} first",
+                )
+            core.start(motion)
+        except Refused as exc:
+            code, message = exc.code, exc.comment
+        except ValueError as exc:  # e.g. a finite but absurd target no time law can cover
+            code, message = ReturnCode.VALUE_ERR, f"{spec.label}: cannot be planned: {exc}"
+        except Exception as exc:
+            _log.exception("starting %s failed", spec.label)
+            code, message = ReturnCode.NG, f"{spec.label}: cannot start: {exc}"
+        else:
+            self._running_motion = motion
+            self.started += 1
+            self.events.motion_started(spec.label, motion)
+            if request is not None:
+                executed.append(request)
+            return
+        if request is not None:
+            request.ok, request.value, request.code, request.message = False, None, code, message
+            executed.append(request)
+        elif core.state not in (CoreState.SERVO_OFF, CoreState.ALARM):
+            self.queue.clear()
+            core.raise_alarm(AlarmCode.TRAJECTORY_FAILURE, "queue", f"queued {message}")
 
     def _shutdown_step(self) -> bool:
         """True when the loop should end (shutdown requested and the robot is safe)."""
@@ -250,6 +287,13 @@ class Controller(Commands):
         now = time.monotonic()
         if self._shutdown_deadline is None:
             self._shutdown_deadline = now + self.stop_timeout
+            pending, self.pending = self.pending, None
+            if pending is not None and pending.request is not None:
+                request = pending.request
+                request.ok, request.value = False, None
+                request.code = ReturnCode.STATUS_ERR
+                request.message = f"{pending.spec.label}: not started: the daemon is stopping"
+                request.done.set()
             self.queue.clear()
             self.events.ending("stopped")
             self.core.stop()
@@ -263,7 +307,9 @@ class Controller(Commands):
 
     def publish(self) -> None:
         """Write the snapshot (loop thread, once per cycle)."""
-        self.publisher.publish(len(self.queue), self.queue.full, self.started, self.finished)
+        self.publisher.publish(
+            len(self.queue), self.queue.full, self.started, self.finished, self.pending is not None
+        )
 
     def _record_blackbox(self, box: BlackBoxRing) -> None:
         """One row of the black box (controller.control.blackbox; written out elsewhere)."""

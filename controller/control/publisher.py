@@ -44,13 +44,22 @@ class SnapshotPublisher:
         #: The alarms last published (None: none yet).
         self._alarms: list[Alarm] | None = None
 
-    def publish(self, queued: int, queue_full: bool, started: int, finished: int) -> None:
-        """Write one snapshot: ``queued`` motions waiting, motion counters."""
+    def publish(
+        self, queued: int, queue_full: bool, started: int, finished: int, starting: bool = False
+    ) -> None:
+        """Write one snapshot: ``queued`` motions waiting, motion counters; ``starting``: a
+        motion accepted, started in the next step (:mod:`controller.control.pending_start`),
+        shown as running (BUSY) already: between two queued motions the robot is never
+        shown ready."""
         w, core = self.writer, self.core
         h = w.header
         w.begin()
         hw_state = snap.HW_STATES.index(self.hw.state)
         flags = 0
+        state = core.state
+        if starting and state == CoreState.READY:
+            state = CoreState.BUSY
+            flags |= snap.F_MOVING | snap.F_MOTION
         if core.is_moving:
             flags |= snap.F_MOVING
         if core.motion is not None:
@@ -62,7 +71,7 @@ class SnapshotPublisher:
         if self.hw.state == HardwareState.ACTIVE and core.state != CoreState.SERVO_OFF:
             flags |= snap.F_SERVO_ON
         # Two slice writes instead of one per field (this runs every cycle).
-        h[snap.H_CYCLE : snap.H_QUEUE + 1] = (core.cycles, core.state, hw_state, flags, queued)
+        h[snap.H_CYCLE : snap.H_QUEUE + 1] = (core.cycles, state, hw_state, flags, queued)
         h[snap.H_STARTED : snap.H_FINISHED + 1] = (started, finished)
         w.values[snap.V_STAMP] = time.monotonic()
         w.q[:] = core.measured_hw
