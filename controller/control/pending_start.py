@@ -47,8 +47,13 @@ class PendingStart:
         return self.motion is not None or self.error is not None
 
     def build(self, kin: Kinematics, dt: float) -> None:
-        """Build the motion as planned (:meth:`MotionSpec.build_as_planned`, period ``dt``
-        [s]), once; an exception is kept for :meth:`take`."""
+        """Build the motion the gateway checked, once (period ``dt`` [s]); an exception is
+        kept for :meth:`take`. It is built at the configuration it was planned from
+        (``spec.planned_from``; the JARA queue's planned end for a queued motion:
+        :meth:`MotionSpec.build_as_planned`), so its path and time law are the checked ones,
+        not a re-plan from where the robot happens to be; the motion then runs on the live
+        kinematics ``kin``. A motion started at once was refused before this if the robot
+        moved more than ``PLAN_TOLERANCE`` since planning."""
         if self.built:
             return
         try:
