@@ -112,44 +112,67 @@ def test_the_planned_mix_is_the_specs_the_gateway_would_send():
     assert seen == {"hand line", "elbow swing", "joint ptp", "waist bend", "vehicle", ARMS_CLOSE}
 
 
-def run_the_mix_counting_compiles(robot_id: str = "smartpal5") -> dict[str, dict[str, list[int]]]:
-    """The planned mix run as the daemon runs it (the hand line and "arms close" planned in a
-    worker process, as the gateway plans in its own; every spec built and started in one
-    step, then cycled to its end): per segment, the kernels that gained a signature while it
-    was built, started and run, with their counts before and after."""
+def run_the_mix_counting_compiles(
+    robot_id: str = "smartpal5", hal: str = "sim"
+) -> dict[str, dict[str, list[int]]]:
+    """The planned mix run as the daemon runs it, on ``hal`` ("sim": the MuJoCo stand-in;
+    "hil": the CAN master and the drive emulator in this process, in lockstep): the hand
+    line and "arms close" planned in a worker process (as the gateway plans in its own)
+    while the cycles go on, every spec accepted, built and started as the control process
+    does (:class:`~controller.control.pending_start.PendingStart`), then cycled to its end.
+    Per segment, the kernels that gained a signature while it was built, started and run,
+    with their counts before and after ("servo on" for the drives' enabling)."""
+    from concurrent.futures import ThreadPoolExecutor
+
     from loop_mix import WorkerLineCheck, planned_segments
 
+    from controller.control.pending_start import PendingStart
+    from hal.factory import make_hardware
     from tests.support import kernel_signatures
+
+    def gained(before: dict[str, int]) -> dict[str, list[int]]:
+        return {k: [before.get(k, 0), n] for k, n in kernel_signatures().items()
+                if n != before.get(k, 0)}  # fmt: skip
 
     robot = load_robot(robot_id)
     dt = 2e-3
-    core = MotionCore(robot, MujocoBackend(robot, dt), dt)
-    core.servo_on()
-    planning = WorkerLineCheck(robot_id, dt)
+    hw = make_hardware(hal, robot, dt, {"emulator": "thread"} if hal == "hil" else None)
+    core = MotionCore(robot, hw, dt)
+    planning = WorkerLineCheck(robot_id, dt)  # started before the drives expect cycles
     compiled: dict[str, dict[str, list[int]]] = {}
     try:
-        for name, plan in planned_segments(core, planning):
-            core.planning_kinematics()
-            spec = plan(core)
-            assert spec is not None, name
-            before = kernel_signatures()
-            core.start(spec.build_as_planned(core.kin, dt))
-            for _ in range(int(20 / dt)):
-                core.cycle()
-                if core.motion is None:
-                    break
-            assert core.state == CoreState.READY and not core.alarms, name
-            new = {k: [before.get(k, 0), n] for k, n in kernel_signatures().items()
-                   if n != before.get(k, 0)}  # fmt: skip
-            compiled[name] = compiled.get(name, {}) | new
+        hw.configure()
+        before = kernel_signatures()
+        core.servo_on()
+        compiled["servo on"] = gained(before)
+        with ThreadPoolExecutor(1) as pool:
+            for name, plan in planned_segments(core, planning):
+                core.planning_kinematics()
+                planned = pool.submit(plan, core)
+                while not planned.done():  # enabled drives expect the cycles meanwhile
+                    core.cycle()
+                spec = planned.result()
+                assert spec is not None, name
+                before = kernel_signatures()
+                pending = PendingStart(spec)
+                pending.build(core.kin, dt)
+                core.start(pending.take(core.kin, dt))
+                for _ in range(int(20 / dt)):
+                    core.cycle()
+                    if core.motion is None:
+                        break
+                assert core.state == CoreState.READY and not core.alarms, (name, core.alarms)
+                compiled[name] = compiled.get(name, {}) | gained(before)
     finally:
+        hw.shutdown()
         planning.close()
     return compiled
 
 
 def test_no_kernel_compiles_while_the_mix_is_built_started_and_run():
-    """Every motion of the mix, built from its spec and started in a step as the control
-    process does, then run to its end, adds no signature to any compiled kernel: no step
+    """Every motion of the mix, built from its spec and started as the control process
+    does, then run to its end, on the MuJoCo stand-in (SmartPal V) and through the CAN
+    master and the drive emulator (PA10), adds no signature to any compiled kernel: no step
     waits for the compiler. In a fresh process (in this one, earlier tests may have compiled
     what the control process would compile in a step): a fresh install compiled the line's
     kernel for the task's column-major target in the first hand line's step, a second with
@@ -161,12 +184,14 @@ def test_no_kernel_compiles_while_the_mix_is_built_started_and_run():
     root = Path(__file__).resolve().parents[1]
     code = (
         "import json; from tests.test_loop_mix import run_the_mix_counting_compiles as run; "
-        "print(json.dumps(run()))"
+        "print(json.dumps({'sim': run('smartpal5', 'sim'), 'hil': run('pa10', 'hil')}))"
     )
     done = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=root
     )
     assert done.returncode == 0, done.stderr[-3000:]
-    compiled = json.loads(done.stdout.strip().splitlines()[-1])
-    assert set(compiled) >= {"hand line", "elbow swing", "joint ptp", "waist bend", ARMS_CLOSE}
-    assert {name: new for name, new in compiled.items() if new} == {}
+    runs = json.loads(done.stdout.strip().splitlines()[-1])
+    assert set(runs["sim"]) >= {"hand line", "elbow swing", "joint ptp", "waist bend", ARMS_CLOSE}
+    assert set(runs["hil"]) >= {"servo on", "hand line", "elbow swing", "joint ptp"}
+    for hal, compiled in runs.items():
+        assert {name: new for name, new in compiled.items() if new} == {}, hal
