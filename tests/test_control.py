@@ -569,3 +569,44 @@ def test_the_slack_advances_the_hardware_after_each_step(tmp_path: Path):
     finally:
         c.close()
     assert events == ["step", "advance", "step", "advance", "step"]
+
+
+def test_a_kernel_compiled_while_the_loop_runs_is_logged_by_name(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+):
+    """Every kernel is compiled or loaded before the loop starts; one that compiles in a
+    cycle (a second without cycles on a fresh install: the drives lose the heartbeat) is
+    a warning naming it, so the stall is explained."""
+    import numba
+
+    from controller.model import jit
+
+    if not jit.available():
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
+
+    def late(x):  # type: ignore[no-untyped-def]
+        return x + 1.0
+
+    kernel = numba.njit(late)  # (no disk cache: a test's kernel)
+    r = robot("pa10")
+    hw = IdealBackend(r, 1.0 / RATE)
+    hw.configure()
+    c = Controller(r, hw, RATE, tmp_path / "snapshot")
+    step_once = c._step
+
+    def compiling(cycle: int, t: float) -> bool:
+        if cycle == 1:
+            kernel(1.0)
+        return step_once(cycle, t) and cycle < 3
+
+    c.loop.step = compiling
+    try:
+        with caplog.at_level("WARNING", logger="imotiond.control"):
+            c.run()
+        assert c.compiled_while_running == [f"{__name__}.late"]
+        (record,) = [m for m in caplog.messages if "compiled" in m]
+        assert f"{__name__}.late" in record and "while the control loop ran" in record
+        kernel(2.0)  # after run(): no longer watched
+        assert c.compiled_while_running == [f"{__name__}.late"]
+    finally:
+        c.close()

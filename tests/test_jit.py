@@ -42,3 +42,29 @@ def test_a_kernels_cache_is_keyed_by_the_kernel_sources() -> None:
     own, sources = locator.get_source_stamp()
     assert sources == jit.KERNEL_SOURCES == jit.kernel_sources_digest()
     assert own  # numba's own stamp of the kernel's file, kept
+
+
+def test_a_compile_while_watched_is_reported_with_its_kernel_and_time() -> None:
+    """watch_compiles names each kernel compiled (or loaded from the cache) for new argument
+    types while it watches, once per compilation, with its time; nothing once stopped."""
+    if not jit.available():
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
+    import numba
+    import numpy as np
+
+    def doubled(x):  # type: ignore[no-untyped-def]
+        return 2.0 * x
+
+    kernel = numba.njit(doubled)  # (no disk cache: a test's kernel)
+    seen: list[tuple[str, float, str]] = []
+    stop = jit.watch_compiles(lambda *report: seen.append(report))
+    try:
+        assert kernel(1.5) == 3.0
+        assert kernel(2.5) == 5.0  # the same types: nothing new
+    finally:
+        stop()
+    assert len(seen) == 1
+    name, seconds, thread = seen[0]
+    assert name == f"{__name__}.doubled" and seconds > 0.0 and thread == "MainThread"
+    kernel(np.arange(3.0))  # new types, no longer watched
+    assert len(seen) == 1

@@ -46,6 +46,7 @@ from controller.control.pending_start import PendingStart
 from controller.control.publisher import SnapshotPublisher
 from controller.control.soft_limits import CartesianSoftLimits
 from controller.errors import ImotionError, Refused
+from controller.model import jit
 from controller.model.alarms import AlarmCode
 from controller.model.obstacles import Obstacle
 from controller.model.robot import Robot
@@ -110,6 +111,8 @@ class Controller(Commands):
         self.started = 0
         self.finished = 0
         self.pending: PendingStart | None = None
+        #: Kernels compiled (or loaded from numba's cache) while :meth:`run` ran.
+        self.compiled_while_running: list[str] = []
         self._running_motion: object = None
         #: Operator log of state changes, motions and alarms (queued, never written here).
         self.events = LoopEvents()
@@ -183,14 +186,28 @@ class Controller(Commands):
                 executed.append(request)
 
     def run(self) -> None:
-        """Run the loop in the calling thread until shutdown."""
+        """Run the loop in the calling thread until shutdown. A compiled kernel that is
+        compiled (or loaded from numba's cache) meanwhile is logged as a warning naming it:
+        every kernel should be ready before the loop starts, a cycle waited for that one."""
         if self.collector is not None:
             self.collector.start()
+        stop_watching = jit.watch_compiles(self._compiled_while_running)
         try:
             self.loop.run()
         finally:
+            stop_watching()
             if self.collector is not None:
                 self.collector.stop()
+
+    def _compiled_while_running(self, kernel: str, seconds: float, thread: str) -> None:
+        self.compiled_while_running.append(kernel)
+        _log.warning(
+            "kernel %s was compiled (or loaded from numba's cache) in thread %s while the "
+            "control loop ran: %.0f ms in which no cycle could run (the drives may have "
+            "lost the heartbeat); every kernel should be ready before the loop starts: "
+            "report this",
+            kernel, thread, seconds * 1e3,
+        )  # fmt: skip
 
     def _execute(self, request: Request) -> None:
         if request.cancelled:  # its caller gave up waiting: never act on it late

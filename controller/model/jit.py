@@ -21,6 +21,8 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar, cast
@@ -123,3 +125,51 @@ def loaded_kernels() -> dict[str, Any]:
             if isinstance(value, dispatcher) and value.py_func.__module__ == name:
                 found[f"{name}.{value.py_func.__name__}"] = value
     return found
+
+
+def _compiling_kernel() -> str:
+    """The kernel whose compilation (or cache load) the calling thread is in: the
+    ``module.function`` of the dispatcher in the nearest ``compile`` frame of the stack."""
+    frame = sys._getframe(1)
+    while frame is not None:
+        owner = frame.f_locals.get("self") if frame.f_code.co_name == "compile" else None
+        function = getattr(owner, "py_func", None)
+        if function is not None:
+            return f"{function.__module__}.{function.__name__}"
+        frame = frame.f_back  # type: ignore[assignment]
+    return "a numba function"
+
+
+def watch_compiles(report: Callable[[str, float, str], None]) -> Callable[[], None]:
+    """From now on, ``report(kernel, seconds, thread)`` after each compilation of a kernel
+    for new argument types, or its load from numba's cache, in any thread of this process
+    (numba's compiler lock, held throughout: the outermost one per thread). Returns the
+    function that stops watching. The control loop watches while it runs: a kernel compiled
+    in a cycle stalls it for up to seconds (the drives then lose the master's heartbeat), so
+    every kernel is compiled or loaded before the loop starts, and one that is not says so."""
+    if numba is None:  # pragma: no cover
+        return lambda: None
+    from numba.core import event
+
+    class _Watch(event.Listener):
+        def __init__(self) -> None:
+            self.open: dict[int, tuple[int, float, str]] = {}  # thread: depth, start, kernel
+
+        def on_start(self, ev: object) -> None:
+            thread = threading.get_ident()
+            depth, start, kernel = self.open.get(thread, (0, 0.0, ""))
+            if depth == 0:
+                start, kernel = time.perf_counter(), _compiling_kernel()
+            self.open[thread] = (depth + 1, start, kernel)
+
+        def on_end(self, ev: object) -> None:
+            thread = threading.get_ident()
+            depth, start, kernel = self.open.pop(thread, (1, time.perf_counter(), "?"))
+            if depth > 1:
+                self.open[thread] = (depth - 1, start, kernel)
+                return
+            report(kernel, time.perf_counter() - start, threading.current_thread().name)
+
+    listener = _Watch()
+    event.register("numba:compiler_lock", listener)
+    return lambda: event.unregister("numba:compiler_lock", listener)

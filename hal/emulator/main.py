@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from controller.logs import setup_logging, stop_logging
+from controller.model import jit
 from controller.model.robot import load_robot
 from controller.model.yaml_source import ConfigError
 from controller.version import add_version_argument
@@ -209,6 +210,14 @@ def _read_commands(
         eof.set()
 
 
+def _warn_compiled(kernel: str, seconds: float, thread: str) -> None:
+    log.warning(
+        "kernel %s was compiled (or loaded from numba's cache) in thread %s while the "
+        "emulator ran: %.0f ms without a SYNC answered; report this",
+        kernel, thread, seconds * 1e3,
+    )  # fmt: skip
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     level = logging.getLevelName(args.log_level.upper())
@@ -280,8 +289,12 @@ def _run(args: argparse.Namespace) -> int:
     reader.start()
     log.info("imotion-sim running: robot %s, %d drives, period %.4f s",
              robot.id, len(emulator.drives), emulator.period)  # fmt: skip
+    # Every kernel is compiled or loaded as the emulator is built: one compiled later
+    # stalled the SYNC rounds it was in (and the master waiting for them).
+    stop_watching = jit.watch_compiles(_warn_compiled)
     while not stop.is_set():
         stop.wait(0.2)
+    stop_watching()
     start = time.monotonic()
     if bridge is not None:
         bridge.close()
