@@ -49,6 +49,12 @@ def test_only_cycles_past_the_period_are_rows_and_each_names_its_largest_part():
     assert [r["motion_start"] for r in rows] == [False, False, True, True]
     counts = print_overruns(rows)
     assert set(counts) == set(CAUSES) and sum(counts.values()) == 4
+    # The slack after step 2 built a motion: cycle 3's late wake is that build, not the host.
+    trace._cycle = 2
+    trace.motion_built()
+    rows = trace.overruns(PERIOD, 0.4e-3, latency, compute)
+    assert [r["cause"] for r in rows] == ["gc", "off cpu", "build", "cpu"]
+    assert rows[2]["motion_start"] and "build" not in HOST_CAUSES
 
 
 def test_collections_are_counted_while_installed_and_reset_forgets():

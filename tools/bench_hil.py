@@ -283,8 +283,9 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
 
     def slack(ns: int) -> None:
         t0 = time.monotonic_ns()
-        if pending:  # the motion accepted in the step, as the daemon's slack builds it
+        if pending and not pending[0][1].built:  # as the daemon's slack builds it
             pending[0][1].build(core.kin, core.dt)
+            trace.motion_built()
         if loop.stats.cycles == warm_cycles:  # after the warm-up's last step
             start_measuring()
         else:

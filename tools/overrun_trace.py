@@ -7,7 +7,8 @@ sends' wall and CPU time), the step's page faults and context switches (``getrus
 its thread), the CPU it began and ended on, the garbage collections of this process (any
 thread: while the step ran, and between the previous step's end and this one's start,
 where they delay the wake-up), whether the planning thread was planning and whether the
-step started a motion (:meth:`CycleTrace.motion_started`); and, read in the loop's slack
+step started a motion (:meth:`CycleTrace.motion_started`) or its slack built one
+(:meth:`CycleTrace.motion_built`); and, read in the loop's slack
 every :data:`STEAL_EVERY` cycles, the steal time of each CPU (``/proc/stat``: time the
 hypervisor ran something else while the guest's CPU wanted to run). Nothing is allocated
 per cycle (a growing list would add page faults of its own to the figures). After the
@@ -28,6 +29,9 @@ cycle that woke 0.5 ms late and waited 0.4 ms for TPDOs is a late wake, not its 
   shows a gap of that length without a sample in the middle of ordinary code;
 * ``late wake``: the loop woke late (the host's: :mod:`machine_floor`'s bare thread wakes
   as late as often);
+* ``build``: the loop woke late after a slack that built a motion (a command's motion is
+  built in the slack of the step that accepted it, :mod:`controller.control.pending_start`):
+  the loop's own, not the host's;
 * ``slow cpu``: the step's own work, but not one part of it grown: ``write()`` and one of
   the other two parts (``read()``'s own CPU, the rest of the step) each took :data:`SLOW`
   times their run's median or more, with no page fault, context switch or collection in
@@ -37,7 +41,8 @@ cycle that woke 0.5 ms late and waited 0.4 ms for TPDOs is a late wake, not its 
   kernel path, no fault);
 * ``cpu``: the step's own work (one part of it grown: e.g. a motion's first cycle).
 
-``steal``, ``late wake`` and ``slow cpu`` are the host's; ``cpu`` and ``gc`` the loop's own;
+``steal``, ``late wake`` and ``slow cpu`` are the host's; ``cpu``, ``build`` and ``gc`` the
+loop's own;
 ``tpdo wait`` the emulator process's (usually the host's too: it runs under SCHED_FIFO on
 the other core). The thread CPU times are the kernel's task clock: on this virtual machine
 they differ from the wall clock (``time.perf_counter``) by up to ~0.5 ms at times, even
@@ -57,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-CAUSES = ("gc", "tpdo wait", "off cpu", "steal", "late wake", "slow cpu", "cpu")
+CAUSES = ("gc", "tpdo wait", "off cpu", "steal", "late wake", "slow cpu", "build", "cpu")
 #: The causes that are the host's (module doc).
 HOST_CAUSES = ("steal", "late wake", "slow cpu")
 
@@ -114,6 +119,8 @@ class CycleTrace:
         self.planning_during = np.zeros(capacity, dtype=bool)
         #: The step started a motion (its first cycle of motion is the next one).
         self.started = np.zeros(capacity, dtype=bool)
+        #: The slack after the step built a motion (the next cycle may wake late for it).
+        self.built = np.zeros(capacity, dtype=bool)
         #: The master's ``read()`` + ``write()`` per cycle: thread CPU and wall time [s].
         self.master_cpu = np.zeros(capacity)
         self.master_wall = np.zeros(capacity)
@@ -243,6 +250,11 @@ class CycleTrace:
         if self._cycle >= 0:
             self.started[self._cycle] = True
 
+    def motion_built(self) -> None:
+        """The slack after the last step built a motion (``PendingStart.build``)."""
+        if self._cycle >= 0:
+            self.built[self._cycle] = True
+
     def end(self) -> None:
         """The step ends."""
         k = self._cycle
@@ -353,7 +365,10 @@ class CycleTrace:
                      "cpu": float(cpus[k])}  # fmt: skip
             cause = max(parts, key=lambda name: parts[name] - usual[name])
             quiet = not (self.faults[k] or self.switches[k] or self.preempted[k] or gc_us)
-            if cause == "cpu" and quiet and slowdown[k] >= SLOW:
+            built_before = k > 0 and bool(self.built[k - 1])
+            if cause == "late wake" and built_before:
+                cause = "build"
+            elif cause == "cpu" and quiet and slowdown[k] >= SLOW:
                 cause = "slow cpu"
             elif cause == "off cpu" and not (self.switches[k] or self.preempted[k]):
                 cause = "steal"
@@ -381,8 +396,10 @@ class CycleTrace:
                 "steal_other_cpus_us": round(steal_others * 1e6, 1),
                 "steal_window_cycles": window,
                 "planning": bool(self.planning_during[k]),
-                # started a motion, or ran its first cycle
-                "motion_start": bool(self.started[k] or (k > 0 and self.started[k - 1])),
+                # built a motion in the slack before it, started one, or ran its first cycle
+                "motion_start": bool(
+                    self.started[k] or (k > 0 and self.started[k - 1]) or built_before
+                ),
                 "cause": cause,
             })  # fmt: skip
         return rows
