@@ -16,6 +16,9 @@ def test_the_measured_run_continues_the_warm_up_loop_and_the_floor_follows_it():
     lines, result = run_tool("bench_hil.py", *SHORT, "--rate", "250", "--floor-seconds", "0.3")
     out = "\n".join(lines)
     assert result["cycles"] == 125 and result["warmup_overruns"] >= 0
+    # Servo on and the first motions: no kernel compiled while the loop ran (one did, on a
+    # fresh install: a 1 s step and the drives' heartbeat lost).
+    assert result["compiled_in_loop"] == []
     # No pause between the warm-up and the measured run (a second loop started after the
     # warm-up made its first step pay for the pause): the first measured deadline is a
     # whole number of periods after the warm-up's last one, on the same loop's grid.

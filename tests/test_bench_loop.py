@@ -71,6 +71,7 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
         # Built in the slack of the step that accepted it, as the control process does.
         assert 0 < starts["build_p50"] == run["start_build_us_p50"]
         assert 0 <= run["starts_over_period"] <= starts["starts"]
+        assert run["compiled_in_loop"] == []  # every kernel ready before the loop
         assert starts["start_first_p50"] <= starts["start_first_max"]
     assert "piece medians by segment" in out and "identical work" in out
     assert "per cycle [us]" in out and "median of 2 runs" in out and "plant_us" in out

@@ -86,6 +86,7 @@ from controller.control.collector import SlackCollector  # noqa: E402
 from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
 from controller.control.pending_start import PendingStart  # noqa: E402
+from controller.model import jit  # noqa: E402
 from controller.model.alarms import AlarmType  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
@@ -319,7 +320,14 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         rate, step, realtime=not args.no_realtime,
         stats_capacity=warm_cycles + int(rate * args.seconds) + 10, slack=slack,
     )  # fmt: skip
-    loop.run(max_cycles=warm_cycles + int(rate * args.seconds))
+    compiled: list[str] = []  # kernels compiled (or loaded) while the loop ran: none due
+    stop_watching = jit.watch_compiles(lambda kernel, seconds, thread: compiled.append(kernel))
+    try:
+        loop.run(max_cycles=warm_cycles + int(rate * args.seconds))
+    finally:
+        stop_watching()
+    if compiled:
+        print(f"kernels compiled while the loop ran (their cycles waited): {compiled}")
     if "start" not in seam:  # stopped in the warm-up (an alarm): nothing measured
         start_measuring()
     elapsed = time.monotonic() - seam["start"]
@@ -487,6 +495,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         "overrun_causes": causes,
         "host_overruns": sum(causes[c] for c in HOST_CAUSES),
         "steal_s_per_cpu": steal,
+        "compiled_in_loop": compiled,
         "warmup_overruns": warmup["overruns"],
         "warmup_compute_us_max": warmup["compute_us_max"],
         "warmup_seam_periods": seam_periods,

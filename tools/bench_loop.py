@@ -94,6 +94,7 @@ from controller.control.core import MotionCore  # noqa: E402
 from controller.control.loop import FixedRateLoop  # noqa: E402
 from controller.control.pending_start import PendingStart  # noqa: E402
 from controller.control.publisher import SnapshotPublisher  # noqa: E402
+from controller.model import jit  # noqa: E402
 from controller.model.robot import load_robot  # noqa: E402
 from controller.motion.motions import Motion  # noqa: E402
 from controller.vocabulary import CoreState  # noqa: E402
@@ -516,12 +517,17 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if collector is not None:
         collector.start()
     steal0 = steal_now()
+    compiled: list[str] = []  # kernels compiled (or loaded) while the loop ran: none due
+    stop_watching = jit.watch_compiles(lambda kernel, seconds, thread: compiled.append(kernel))
     try:
         loop.run(max_cycles=int(args.rate * args.seconds))
     finally:
+        stop_watching()
         if collector is not None:
             collector.stop()
     steal_ms = steal_ms_since(steal0)
+    if compiled:
+        print(f"kernels compiled while the loop ran (their cycles waited): {compiled}")
     book()  # the last step's (the loop ended before its slack)
     finished.set()
     thread.join()
@@ -655,6 +661,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "start_cpu_us_p50": starts["all"].get("start_first_p50", 0.0),
         "start_cpu_us_max": starts["all"].get("start_first_max", 0.0),
         "start_build_us_p50": starts["all"].get("build_p50", 0.0),
+        "compiled_in_loop": compiled,
         "starts_over_period": starts["all"].get("over_period", 0),
         "starts": starts,
         "pieces_us": pieces,
