@@ -68,6 +68,10 @@ class Request:
     #: Set when the caller stopped waiting; the loop then drops the request unexecuted.
     cancelled: bool = False
 
+    def refuse(self, code: ReturnCode, message: str) -> None:
+        """Answer with ``code`` and ``message`` and no value (not OK)."""
+        self.ok, self.value, self.code, self.message = False, None, code, message
+
 
 class Controller(Commands):
     """The loop-side half of the daemon (see the module docstring)."""
@@ -219,10 +223,10 @@ class Controller(Commands):
             request.value = handler(**request.args)
             request.ok = True
         except ImotionError as exc:
-            request.code, request.message = exc.code, exc.comment
+            request.refuse(exc.code, exc.comment)
         except Exception as exc:  # a command must never take the loop down
             _log.exception("command %s failed", request.name)
-            request.code, request.message = ReturnCode.NG, f"{request.name} failed: {exc}"
+            request.refuse(ReturnCode.NG, f"{request.name} failed: {exc}")
 
     def submit(self, name: str, timeout: float = 5.0, **args: Any) -> Request:
         """Hand a command to the loop and wait for its answer (any thread but the loop's).
@@ -291,7 +295,7 @@ class Controller(Commands):
                 executed.append(request)
             return
         if request is not None:
-            request.ok, request.value, request.code, request.message = False, None, code, message
+            request.refuse(code, message)
             executed.append(request)
         elif core.state not in (CoreState.SERVO_OFF, CoreState.ALARM):
             self.queue.clear()
@@ -306,11 +310,9 @@ class Controller(Commands):
             self._shutdown_deadline = now + self.stop_timeout
             pending, self.pending = self.pending, None
             if pending is not None and pending.request is not None:
-                request = pending.request
-                request.ok, request.value = False, None
-                request.code = ReturnCode.STATUS_ERR
-                request.message = f"{pending.spec.label}: not started: the daemon is stopping"
-                request.done.set()
+                message = f"{pending.spec.label}: not started: the daemon is stopping"
+                pending.request.refuse(ReturnCode.STATUS_ERR, message)
+                pending.request.done.set()
             self.queue.clear()
             self.events.ending("stopped")
             self.core.stop()
