@@ -131,9 +131,9 @@ class LinePath:
                 rotation, position, twist,
             )  # fmt: skip
             return
-        rotation[...] = self._r0 @ pin.exp3(s0 * self.omega)
+        rotation[...] = self.rotation_at(s0)
         np.add(self._p0, s0 * self.dp, out=position)
-        np.multiply(self._twist_per_s, (s1 - s0) / dt, out=twist)
+        twist[...] = self.average_twist(s0, s1, dt)
 
     def limits(self, speed: tuple[float, float], accel: tuple[float, float]) -> tuple[float, float]:
         """(ṡ_max, s̈_max) from (translation, rotation) speed and acceleration limits."""
