@@ -99,3 +99,10 @@ def kernel_signatures() -> dict[str, int]:
     """How many signatures every compiled kernel loaded so far has (by qualified name):
     equal before and after control cycles when none compiled in them."""
     return {name: len(kernel.signatures) for name, kernel in jit.loaded_kernels().items()}
+
+
+def kernels_gained(before: dict[str, int]) -> dict[str, list[int]]:
+    """The kernels that gained a signature since ``before`` (a :func:`kernel_signatures`),
+    with their counts then and now (0 then: not loaded yet)."""
+    return {name: [before.get(name, 0), n] for name, n in kernel_signatures().items()
+            if n != before.get(name, 0)}  # fmt: skip

@@ -15,7 +15,7 @@ from hal.can.joints import JointMap
 from hal.can.scaling import I32_MAX, I32_MIN
 from hal.can.supervision import Supervisor
 from hal.can.unix_wire import encode
-from tests.support import kernel_signatures, robot
+from tests.support import kernel_signatures, kernels_gained, robot
 
 pytestmark = pytest.mark.skipif(not jit.available(), reason="numba not installed or IMOTION_JIT=0")
 
@@ -177,5 +177,4 @@ def test_a_master_cycle_adds_no_signature():
         assert before[f"{kernel.__module__}.{kernel.__name__}"] > 0
     result = bench_can_master.measure_master("smartpal5", cycles=50, warmup=10)
     assert result["path"] == "records" and result["compiled"]
-    after = kernel_signatures()
-    assert {k: (before.get(k), n) for k, n in after.items() if n != before.get(k)} == {}
+    assert kernels_gained(before) == {}

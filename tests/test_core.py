@@ -16,7 +16,7 @@ from controller.vocabulary import CoreState, RightLeft, UnitType
 from hal.ideal_backend import IdealBackend
 from hal.interface import HardwareFault, HardwareState
 from tests.motion_support import DT, make_core
-from tests.support import kernel_signatures, robot
+from tests.support import kernel_signatures, kernels_gained, robot
 
 
 def arm_move(core: MotionCore, delta: float = 0.3) -> JointMotion:
@@ -471,5 +471,4 @@ def test_the_control_cycle_never_waits_for_a_compiler():
     for _ in range(30):
         core.cycle()
     assert core.motion is not None and len(core.ik.tasks) >= 2
-    after = kernel_signatures()
-    assert {k: (before.get(k), n) for k, n in after.items() if n != before.get(k)} == {}
+    assert kernels_gained(before) == {}

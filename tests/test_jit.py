@@ -68,3 +68,19 @@ def test_a_compile_while_watched_is_reported_with_its_kernel_and_time() -> None:
     assert name == f"{__name__}.doubled" and seconds > 0.0 and thread == "MainThread"
     kernel(np.arange(3.0))  # new types, no longer watched
     assert len(seen) == 1
+
+
+def test_compiled_meanwhile_lists_the_kernels_compiled_in_its_block() -> None:
+    if not jit.available():
+        pytest.skip("compiled kernels are off (no numba, or IMOTION_JIT=0)")
+    import numba
+
+    def halved(x):  # type: ignore[no-untyped-def]
+        return 0.5 * x
+
+    kernel = numba.njit(halved)  # (no disk cache: a test's kernel)
+    with jit.compiled_meanwhile() as compiled:
+        kernel(1.0)
+        kernel(3.0)
+    kernel(1)  # new types after the block: not listed
+    assert compiled == [f"{__name__}.halved"]

@@ -128,11 +128,7 @@ def run_the_mix_counting_compiles(
 
     from controller.control.pending_start import PendingStart
     from hal.factory import make_hardware
-    from tests.support import kernel_signatures
-
-    def gained(before: dict[str, int]) -> dict[str, list[int]]:
-        return {k: [before.get(k, 0), n] for k, n in kernel_signatures().items()
-                if n != before.get(k, 0)}  # fmt: skip
+    from tests.support import kernel_signatures, kernels_gained
 
     robot = load_robot(robot_id)
     dt = 2e-3
@@ -144,7 +140,7 @@ def run_the_mix_counting_compiles(
         hw.configure()
         before = kernel_signatures()
         core.servo_on()
-        compiled["servo on"] = gained(before)
+        compiled["servo on"] = kernels_gained(before)
         with ThreadPoolExecutor(1) as pool:
             for name, plan in planned_segments(core, planning):
                 core.planning_kinematics()
@@ -162,7 +158,7 @@ def run_the_mix_counting_compiles(
                     if core.motion is None:
                         break
                 assert core.state == CoreState.READY and not core.alarms, (name, core.alarms)
-                compiled[name] = compiled.get(name, {}) | gained(before)
+                compiled[name] = compiled.get(name, {}) | kernels_gained(before)
     finally:
         hw.shutdown()
         planning.close()

@@ -320,12 +320,8 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
         rate, step, realtime=not args.no_realtime,
         stats_capacity=warm_cycles + int(rate * args.seconds) + 10, slack=slack,
     )  # fmt: skip
-    compiled: list[str] = []  # kernels compiled (or loaded) while the loop ran: none due
-    stop_watching = jit.watch_compiles(lambda kernel, seconds, thread: compiled.append(kernel))
-    try:
+    with jit.compiled_meanwhile() as compiled:  # kernels compiled in the loop: none due
         loop.run(max_cycles=warm_cycles + int(rate * args.seconds))
-    finally:
-        stop_watching()
     if compiled:
         print(f"kernels compiled while the loop ran (their cycles waited): {compiled}")
     if "start" not in seam:  # stopped in the warm-up (an alarm): nothing measured

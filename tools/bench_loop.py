@@ -517,12 +517,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if collector is not None:
         collector.start()
     steal0 = steal_now()
-    compiled: list[str] = []  # kernels compiled (or loaded) while the loop ran: none due
-    stop_watching = jit.watch_compiles(lambda kernel, seconds, thread: compiled.append(kernel))
     try:
-        loop.run(max_cycles=int(args.rate * args.seconds))
+        with jit.compiled_meanwhile() as compiled:  # kernels compiled in the loop: none due
+            loop.run(max_cycles=int(args.rate * args.seconds))
     finally:
-        stop_watching()
         if collector is not None:
             collector.stop()
     steal_ms = steal_ms_since(steal0)

@@ -23,7 +23,8 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
@@ -173,3 +174,15 @@ def watch_compiles(report: Callable[[str, float, str], None]) -> Callable[[], No
     listener = _Watch()
     event.register("numba:compiler_lock", listener)
     return lambda: event.unregister("numba:compiler_lock", listener)
+
+
+@contextmanager
+def compiled_meanwhile() -> Iterator[list[str]]:
+    """The kernels compiled (or loaded from numba's cache) for new argument types while the
+    block runs, in order (:func:`watch_compiles` into a list: a benchmark's loop)."""
+    compiled: list[str] = []
+    stop = watch_compiles(lambda kernel, seconds, thread: compiled.append(kernel))
+    try:
+        yield compiled
+    finally:
+        stop()
