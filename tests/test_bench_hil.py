@@ -38,7 +38,7 @@ def test_the_measured_run_continues_the_warm_up_loop_and_the_floor_follows_it():
 def test_each_rate_gets_its_floor_with_a_second_thread_at_the_emulator_priority():
     lines, result = run_tool(
         "bench_hil.py", *SHORT, "--rates", "250,200", "--emulator-priority", "70",
-        "--floor-seconds", "0.2",
+        "--floor-seconds", "0.2", "--spin-us", "500",
     )  # fmt: skip
     out = "\n".join(lines)
     assert [r["rate_hz"] for r in result["runs"]] == [250.0, 200.0]
@@ -46,6 +46,9 @@ def test_each_rate_gets_its_floor_with_a_second_thread_at_the_emulator_priority(
         floor = run["machine_floor"]
         assert floor["threshold_us"] == round(1e6 / run["rate_hz"] - run["compute_us_p50"], 1)
         assert floor["emulator"]["priority"] == 70 and floor["loop"]["priority"] == 80
+        # The loop busy-waits its last 500 us, and so does the floor's loop thread only.
+        assert run["spin_us"] == floor["loop"]["spin_us"] == 500.0
+        assert "spin_us" not in floor["emulator"]
         assert run["floor_late_emulator"] == floor["emulator"]["late_past_threshold"] >= 0
         assert run["floor_late"] == floor["loop"]["late_past_threshold"] >= 0
     assert "machine floor's late wakes (FIFO 80 / 70)" in out

@@ -84,10 +84,14 @@ def test_bench_loop_prints_the_breakdown_of_the_cycle_and_the_median_of_its_runs
     assert "machine floor: a bare SCHED_FIFO sleep loop" in out
 
 
-def test_bench_loop_without_the_breakdown_still_reports_the_cycle():
-    lines, result = run_tool("bench_loop.py", *SHORT, "--no-breakdown", "--floor-seconds", "0")
+def test_bench_loop_without_the_breakdown_still_reports_the_cycle_and_spins_when_asked():
+    lines, result = run_tool(
+        "bench_loop.py", *SHORT, "--no-breakdown", "--floor-seconds", "0.1", "--spin-us", "200"
+    )
     out = "\n".join(lines)
-    assert result["machine_floor"] is None and "machine floor" not in out
+    # The loop and the floor's bare thread both busy-wait the last 200 us of each period.
+    assert result["spin_us"] == 200.0 and result["machine_floor"]["spin_us"] == 200.0
+    assert "machine floor: a bare SCHED_FIFO sleep + spin loop" in out
     (run,) = result["per_run"]
     assert run["cycles"] == 100 and run["pieces_us"] == {}
     assert all("pieces_p50" not in seg for seg in run["segments"].values())

@@ -78,6 +78,7 @@ def test_set_values_are_yaml(tmp_path: Path):
         ("realtime:\n  loop_cpus: [-1]\n", "realtime.loop_cpus"),
         ("realtime:\n  loop_cpus: []\n", "realtime.loop_cpus"),
         ("realtime:\n  loop_cpus: one\n", "realtime.loop_cpus"),
+        ("realtime:\n  spin_us: -1\n", "realtime.spin_us"),
     ],
 )
 def test_invalid_settings_name_the_file_and_key(tmp_path: Path, text: str, where: str):
@@ -229,3 +230,17 @@ def test_streams_and_workers_are_independent():
     them goes with any number of workers."""
     cfg = load_config(None, None, ["workers=2", "monitor.max_streams=8"])
     assert (cfg.workers, cfg.monitor.max_streams) == (2, 8)
+
+
+def test_the_spin_must_leave_part_of_the_period_to_sleep(tmp_path: Path):
+    """``realtime.spin_us`` is checked against the period of ``loop.rate_hz``."""
+    assert load_config().realtime.spin_us == 0.0
+    cfg = load_config(None, None, ["loop.rate_hz=1000", "realtime.spin_us=900"])
+    assert cfg.realtime.spin_us == 900
+    path = tmp_path / "spin.yaml"
+    path.write_text("loop:\n  rate_hz: 1000\nrealtime:\n  spin_us: 1000\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    message = str(err.value)
+    assert message.startswith(str(path)), message
+    assert "realtime.spin_us (1000) must be below the loop's period (1000 µs" in message, message

@@ -335,6 +335,21 @@ def test_the_gateway_answers_servo_off_before_the_loop_runs(short_dir: Path):
         d.close()
 
 
+def test_the_loop_is_built_as_the_realtime_section_says(short_dir: Path):
+    """``realtime.spin_us`` and ``realtime.collect_in_slack`` reach the control loop."""
+    cfg = load_config(
+        None,
+        {"robot": "pa10", "hal": "ideal", "listen": f"unix:{short_dir / 'api.sock'}"},
+        ["realtime.enabled=false", "realtime.spin_us=300", "realtime.collect_in_slack=false"],
+    )
+    d = Daemon(cfg)
+    try:
+        assert d.controller.loop.spin_ns == 300_000
+        assert d.controller.collector is None
+    finally:
+        d.close()
+
+
 # ----------------------------------------------------------------------------- refusals
 def _refused(*args: str) -> Imotiond:
     d = _run(*args)

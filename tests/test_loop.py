@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from controller.control import realtime
-from controller.control.loop import FixedRateLoop, LoopStats
+from controller.control.loop import MIN_SLEEP_SHARE, FixedRateLoop, LoopStats
 
 SUMMARY_KEYS = {
     "cycles",
@@ -232,6 +232,32 @@ def test_spin_busy_waits_the_last_microseconds():
     assert all(ns <= 1_000_000 - 50_000 for ns in clock.sleeps)
     assert reads > 2 * 40  # cycle 0 is due at once; cycles 1 and 2 spin ~49 µs each
     assert loop.stats.summary()["wake_latency_us_max"] <= 1.0
+
+
+@pytest.mark.parametrize("work_us", [500, 950])
+def test_a_spin_leaves_the_thread_a_tenth_of_the_period_asleep(work_us: int):
+    """A spin as long as the period allows still sleeps MIN_SLEEP_SHARE of it (a FIFO
+    thread that never sleeps is stopped by the kernel's real-time throttling); with less
+    left than that, the loop sleeps up to the deadline and does not spin."""
+    assert MIN_SLEEP_SHARE == 0.1
+    clock = FakeClock()
+
+    def reading_clock() -> int:
+        clock.now += 1_000  # each clock read costs 1 µs
+        return clock.now
+
+    loop = FixedRateLoop(
+        1000,
+        lambda c, t: clock.work(work_us * 1_000),
+        realtime=False,
+        spin_us=900,
+        clock_ns=reading_clock,
+        sleep=clock.sleep,
+    )
+    loop.run(max_cycles=5)
+    least = min(100_000, (1000 - work_us) * 1_000)  # the share, or what is left [ns]
+    assert len(clock.sleeps) == 4  # cycle 0 is due at once
+    assert all(least - 5_000 <= ns <= least for ns in clock.sleeps), clock.sleeps
 
 
 def test_overruns_on_the_real_clock():

@@ -34,3 +34,10 @@ def test_loops_measured_together_answer_in_the_order_of_their_priorities():
     assert (loop["priority"], second["priority"]) == (80, 70)
     assert loop["threshold_us"] == second["threshold_us"] == 1e6
     assert loop["late_past_threshold"] >= 0 and second["late_past_threshold"] >= 0
+
+
+def test_a_spinning_floor_says_so_and_only_the_first_of_loops_together_spins():
+    floor = machine_floor.measure(rate=500.0, seconds=0.2, spin_us=500.0)
+    assert floor["spin_us"] == 500.0 and 0 <= floor["late"] <= 100
+    loop, second = machine_floor.measure_together(500.0, 0.2, (80, 70), 1e6, spin_us=300.0)
+    assert loop["spin_us"] == 300.0 and "spin_us" not in second

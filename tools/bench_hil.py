@@ -6,7 +6,7 @@ Usage: python tools/bench_hil.py [--robot smartpal5] [--rate 500 | --rates 1000,
                                  [--emulator process|thread] [--drives PATH]
                                  [--planner process|thread] [--gc slack|automatic]
                                  [--planner-priority 50] [--no-realtime]
-                                 [--trace-out cycles.npz]
+                                 [--spin-us US] [--trace-out cycles.npz]
 
 ``--hal hil`` exactly as the daemon builds it (:func:`hal.factory.make_hardware`). By
 default the emulator is its own process (``imotion-sim`` on ``unix`` buses, :mod:`hal.hil`):
@@ -122,6 +122,10 @@ def main() -> int:
                              "(default), or CPython's automatic collection")  # fmt: skip
     parser.add_argument("--switch-interval", type=float, default=1e-4,
                         help="sys.setswitchinterval [s]")  # fmt: skip
+    parser.add_argument("--spin-us", type=float, default=0.0,
+                        help="busy-wait the last microseconds before each deadline, as "
+                             "realtime.spin_us in the daemon (the floor's loop thread "
+                             "too)")  # fmt: skip
     parser.add_argument("--floor-seconds", type=float, default=None,
                         help="after the runs, the machine's floor at each run's rate "
                              "(tools/machine_floor.py) this long [s] (default: --seconds; "
@@ -319,6 +323,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     loop = FixedRateLoop(
         rate, step, realtime=not args.no_realtime,
         stats_capacity=warm_cycles + int(rate * args.seconds) + 10, slack=slack,
+        spin_us=args.spin_us,
     )  # fmt: skip
     with jit.compiled_meanwhile() as compiled:  # kernels compiled in the loop: none due
         loop.run(max_cycles=warm_cycles + int(rate * args.seconds))
@@ -471,6 +476,7 @@ def run(args: argparse.Namespace, rate: float) -> dict[str, Any]:
     result = {
         "robot": args.robot,
         "rate_hz": rate,
+        "spin_us": args.spin_us,
         "emulator": args.emulator,
         "emulator_priority": priority if args.emulator == "process" else None,
         "planner": args.planner,
@@ -516,7 +522,8 @@ def add_floor(result: dict[str, Any], seconds: float) -> None:
     second = result["emulator"] == "process" and bool(result["emulator_priority"])
     if second:
         priorities.append(int(result["emulator_priority"]))
-    floors = machine_floor.measure_together(rate, seconds, priorities, threshold)
+    spin = float(result.get("spin_us", 0.0))
+    floors = machine_floor.measure_together(rate, seconds, priorities, threshold, spin)
     result["machine_floor"] = {
         "seconds": seconds,
         "threshold_us": round(threshold, 1),

@@ -5,6 +5,7 @@ Usage: python tools/bench_loop.py [--robot smartpal5] [--rate 1000] [--seconds 6
                                   [--runs 1] [--no-realtime] [--no-breakdown]
                                   [--planner process|thread] [--gc slack|automatic]
                                   [--spread-seconds 5] [--loop-cpus 1] [--floor-seconds S]
+                                  [--spin-us US]
 
 The mix repeats: hand line out and back, elbow swing with the hand held, joint PTP out and
 back, waist bend with the hands held, vehicle out and back, both hands towards each other
@@ -62,6 +63,10 @@ virtual cores even it wakes late by more than half a period now and then (the ho
 something else on the core): the loop's late cycles are read against it. Each run and the
 floor also print the steal time of each CPU over their time (``/proc/stat``: the host ran
 something else while the VM's CPU had work; ``steal_ms_per_cpu`` in the JSON line).
+
+``--spin-us US`` busy-waits the last ``US`` µs before each deadline, in the loop, the
+identical-work loop and the floor's bare thread, as the daemon's ``realtime.spin_us`` does
+(docs/daemon.md, "A core for the loop").
 """
 
 from __future__ import annotations
@@ -351,7 +356,12 @@ def identical_work(core: MotionCore, args: argparse.Namespace) -> dict[str, floa
 
     collector = SlackCollector() if args.gc == "slack" else None
     loop = FixedRateLoop(
-        args.rate, step, realtime=not args.no_realtime, slack=collector, cpus=args.loop_cpus
+        args.rate,
+        step,
+        realtime=not args.no_realtime,
+        slack=collector,
+        cpus=args.loop_cpus,
+        spin_us=args.spin_us,
     )
     if collector is not None:
         collector.start()
@@ -509,6 +519,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         stats_capacity=capacity,
         slack=slack,
         cpus=args.loop_cpus,
+        spin_us=args.spin_us,
     )
     runtime = tempfile.TemporaryDirectory(prefix="bench-loop-")
     publisher = SnapshotPublisher(
@@ -716,6 +727,13 @@ def main() -> int:
         "does in the daemon",
     )
     parser.add_argument(
+        "--spin-us",
+        type=float,
+        default=0.0,
+        help="busy-wait the last microseconds before each deadline, as realtime.spin_us does "
+        "in the daemon (the floor's bare thread too)",
+    )
+    parser.add_argument(
         "--floor-seconds",
         type=float,
         default=None,
@@ -763,10 +781,11 @@ def main() -> int:
     floor = None
     if floor_seconds > 0:
         steal0 = steal_now()
-        floor = machine_floor.measure(args.rate, floor_seconds)
+        floor = machine_floor.measure(args.rate, floor_seconds, spin_us=args.spin_us)
         floor["steal_ms_per_cpu"] = steal_ms_since(steal0)
         print(
-            f"machine floor: a bare SCHED_FIFO sleep loop at {args.rate:g} Hz for "
+            f"machine floor: a bare SCHED_FIFO sleep{' + spin' if args.spin_us else ''} loop "
+            f"at {args.rate:g} Hz for "
             f"{floor_seconds:g} s (fifo {floor.get('fifo')}): late by > half a period "
             f"{floor.get('late')}, wake p99 {floor.get('wake_p99_us')} us, max "
             f"{floor.get('wake_max_us')} us, steal time per CPU {floor['steal_ms_per_cpu']} "
@@ -779,6 +798,7 @@ def main() -> int:
         "rate_hz": args.rate,
         "seconds": args.seconds,
         "runs": args.runs,
+        "spin_us": args.spin_us,
         "median": median,
         "machine_floor": floor,
         "alarms": sum(r["alarms"] for r in runs),

@@ -3,7 +3,7 @@
 the control loop's) that only sleeps to absolute deadlines, no Python work, no other thread.
 
 Usage: python tools/machine_floor.py [--rate 1000] [--seconds 60] [--priority 80]
-                                     [--threshold-us US]
+                                     [--threshold-us US] [--spin-us US]
 
 Prints one JSON line: ``late`` (cycles woken later than half a period), ``wake_p99_us``,
 ``wake_max_us`` and ``fifo`` (whether SCHED_FIFO was granted); with ``--threshold-us`` also
@@ -31,15 +31,24 @@ from typing import Any
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from controller.control.loop import MIN_SLEEP_SHARE
+
 #: The control loop's SCHED_FIFO priority (controller.control.realtime's default).
 LOOP_PRIORITY = 80
 
 
 def bare_loop(
-    rate: float, seconds: float, priority: int = LOOP_PRIORITY, threshold_us: float | None = None
+    rate: float,
+    seconds: float,
+    priority: int = LOOP_PRIORITY,
+    threshold_us: float | None = None,
+    spin_us: float = 0.0,
 ) -> dict[str, Any]:
     """Sleep to ``rate`` [Hz] deadlines for ``seconds`` [s] in this thread (SCHED_FIFO
-    ``priority`` when permitted); the late count and wake latencies [µs], and with
+    ``priority`` when permitted), the last ``spin_us`` [µs] before each busy-waiting (as
+    the loop with ``realtime.spin_us``, after a sleep of at least MIN_SLEEP_SHARE of the
+    period); the late count and wake latencies [µs], and with
     ``threshold_us`` the wakes later than it (module doc)."""
     fifo = True
     try:
@@ -47,21 +56,30 @@ def bare_loop(
     except (OSError, AttributeError):
         fifo = False
     period = round(1e9 / rate)
+    spin = round(spin_us * 1e3)
+    least = round(MIN_SLEEP_SHARE * period)  # as the loop: no spin without a sleep
     n = max(1, int(rate * seconds))
     wake = np.zeros(n)
-    t0 = time.monotonic_ns()
+    clock = time.monotonic_ns
+    t0 = clock()
     for k in range(n):
         deadline = t0 + (k + 1) * period
-        now = time.monotonic_ns()
-        if deadline > now:
-            time.sleep((deadline - now) / 1e9)
-        wake[k] = (time.monotonic_ns() - deadline) / 1e3
+        now = clock()
+        spin_from = max(deadline - spin, min(now + least, deadline)) if spin else deadline
+        if spin_from > now:
+            time.sleep((spin_from - now) / 1e9)
+            now = clock()
+        while now < deadline:
+            now = clock()
+        wake[k] = (now - deadline) / 1e3
     out: dict[str, Any] = {
         "late": int(np.count_nonzero(wake > 0.5 * period / 1e3)),
         "wake_p99_us": round(float(np.percentile(wake, 99.0)), 1),
         "wake_max_us": round(float(wake.max()), 1),
         "fifo": fifo,
     }
+    if spin:
+        out["spin_us"] = spin_us
     if threshold_us is not None:
         out["late_past_threshold"] = int(np.count_nonzero(wake > threshold_us))
         out["threshold_us"] = round(float(threshold_us), 1)
@@ -70,20 +88,29 @@ def bare_loop(
 
 
 def measure(
-    rate: float, seconds: float, priority: int = LOOP_PRIORITY, threshold_us: float | None = None
+    rate: float,
+    seconds: float,
+    priority: int = LOOP_PRIORITY,
+    threshold_us: float | None = None,
+    spin_us: float = 0.0,
 ) -> dict[str, Any]:
     """:func:`bare_loop` in a process of its own (nothing else of the caller's in it); on a
     failure ``{"error": ...}``."""
-    return measure_together(rate, seconds, (priority,), threshold_us)[0]
+    return measure_together(rate, seconds, (priority,), threshold_us, spin_us)[0]
 
 
 def measure_together(
-    rate: float, seconds: float, priorities: Sequence[int], threshold_us: float | None = None
+    rate: float,
+    seconds: float,
+    priorities: Sequence[int],
+    threshold_us: float | None = None,
+    spin_us: float = 0.0,
 ) -> list[dict[str, Any]]:
     """One :func:`bare_loop` process per priority of ``priorities``, all at the same time
     (same rate and deadlines' period; each its own start); their results in that order,
-    ``{"error": ...}`` for one that failed."""
-    procs = []
+    ``{"error": ...}`` for one that failed. ``spin_us`` applies to the first (the loop's
+    stand-in; the others are the loop's helper processes, which sleep)."""
+    procs: list[subprocess.Popen[str]] = []
     for priority in priorities:
         cmd = [sys.executable, str(Path(__file__).resolve()), "--rate", f"{rate:g}"]
         cmd += ["--seconds", f"{seconds:g}"]
@@ -91,6 +118,8 @@ def measure_together(
             cmd += ["--priority", str(priority)]
         if threshold_us is not None:
             cmd += ["--threshold-us", repr(float(threshold_us))]
+        if spin_us and not procs:
+            cmd += ["--spin-us", repr(float(spin_us))]
         procs.append(subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                       text=True))  # fmt: skip
     results = []
@@ -113,8 +142,10 @@ def main() -> int:
                         help="SCHED_FIFO priority (1..99)")  # fmt: skip
     parser.add_argument("--threshold-us", type=float, default=None,
                         help="also count the wakes later than this [us]")  # fmt: skip
+    parser.add_argument("--spin-us", type=float, default=0.0,
+                        help="busy-wait the last microseconds before each deadline")  # fmt: skip
     args = parser.parse_args()
-    result = bare_loop(args.rate, args.seconds, args.priority, args.threshold_us)
+    result = bare_loop(args.rate, args.seconds, args.priority, args.threshold_us, args.spin_us)
     print(json.dumps(result), flush=True)
     return 0
 

@@ -1,8 +1,9 @@
 """A fixed-rate loop on absolute deadlines, with cycle statistics in ring buffers.
 
 Cycle ``k`` is due at ``t0 + k·period``. The loop sleeps until each deadline (``time.sleep``
-on the remaining time, then an optional busy-wait for the last ``spin_us`` microseconds), runs
-the step, and measures the wake latency (actual wake − deadline) and the compute time (step
+on the remaining time, then an optional busy-wait for the last ``spin_us`` microseconds, never
+so long that the thread sleeps less than :data:`MIN_SLEEP_SHARE` of the period), runs the
+step, and measures the wake latency (actual wake − deadline) and the compute time (step
 duration). A step that ends after the next deadline is an *overrun*: it is counted and the
 loop resumes at the first deadline still in the future, never catching up with a burst of
 late cycles. With ``paced=False`` cycles run back to back without sleeping (lockstep
@@ -34,6 +35,12 @@ MIN_RATE_HZ = 1.0
 MAX_RATE_HZ = 2000.0
 #: Seconds of cycles the statistics keep by default.
 DEFAULT_HISTORY_S = 10.0
+#: With ``spin_us``, the loop still sleeps at least this share of each period (or up to the
+#: deadline when less is left): a SCHED_FIFO thread busy for more than
+#: ``sched_rt_runtime_us / sched_rt_period_us`` of a second (Linux: 95 %) is stopped for the
+#: rest of that second, 50 ms without a cycle (seen in tools/bench_hil.py with a spin that
+#: left no sleep: an overrun of 35-50 ms every second).
+MIN_SLEEP_SHARE = 0.1
 
 
 def percentiles(values: np.ndarray, q: tuple[float, ...]) -> list[float]:
@@ -131,7 +138,8 @@ class FixedRateLoop:
 
     ``realtime``: :func:`controller.control.realtime.apply_realtime` in the thread calling
     :meth:`run`, at its start (best effort, warnings when refused), restored when it returns.
-    ``spin_us``: busy-wait for the last microseconds before each deadline (costs a CPU).
+    ``spin_us``: busy-wait for the last microseconds before each deadline (costs a CPU), in
+    what is left after the least sleep (:data:`MIN_SLEEP_SHARE` of the period).
     ``stats_capacity``: cycles kept by :attr:`stats` (default 10 s worth).
     ``slack``: called after each step with the time left before the next deadline [ns].
     ``cpus``: with ``realtime``, pin the thread calling :meth:`run` to these CPUs.
@@ -162,6 +170,8 @@ class FixedRateLoop:
         if not (math.isfinite(spin_us) and 0.0 <= spin_us * 1e3 < self.period_ns):
             raise ValueError(f"spin_us must be within 0..period, got {spin_us!r}")
         self.spin_ns = round(spin_us * 1e3)
+        #: The least sleep before a deadline when spinning [ns] (see MIN_SLEEP_SHARE).
+        self._min_sleep_ns = round(MIN_SLEEP_SHARE * self.period_ns)
         self.step = step
         self.slack = slack
         self.realtime = realtime
@@ -260,11 +270,17 @@ class FixedRateLoop:
         return self._clock_ns, self.period_ns, self.stats, self.step, self._stop
 
     def _wait_until(self, deadline: int) -> int:
-        """Sleep, then spin, until ``deadline`` [ns]; returns the wake time [ns]."""
+        """Sleep, then spin, until ``deadline`` [ns]; returns the wake time [ns]. The spin
+        starts ``spin_us`` before the deadline, or later so that the sleep before it lasts
+        at least :data:`MIN_SLEEP_SHARE` of the period (up to the deadline when less is
+        left): without a spin, a sleep up to the deadline."""
         clock = self._clock_ns
         now = clock()
-        while deadline - now > self.spin_ns:
-            self._sleep((deadline - now - self.spin_ns) / 1e9)
+        spin_from = deadline
+        if self.spin_ns:
+            spin_from = max(deadline - self.spin_ns, min(now + self._min_sleep_ns, deadline))
+        while spin_from - now > 0:
+            self._sleep((spin_from - now) / 1e9)
             now = clock()
         while now < deadline:
             now = clock()

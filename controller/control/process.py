@@ -86,9 +86,12 @@ class Controller(Commands):
         solver: str = "daqp",
         obstacles: Sequence[Obstacle] = (),
         collect_in_slack: bool = True,
+        spin_us: float = 0.0,
     ):
         """``collect_in_slack``: while :meth:`run` runs, the garbage collector runs only in
-        the loop's slack (:class:`~controller.control.collector.SlackCollector`)."""
+        the loop's slack (:class:`~controller.control.collector.SlackCollector`);
+        ``spin_us``: the loop busy-waits this long before each deadline [µs] (see
+        :class:`~controller.control.loop.FixedRateLoop`)."""
         self.robot = robot
         self.hw = hardware
         self.dt = 1.0 / rate_hz
@@ -101,6 +104,7 @@ class Controller(Commands):
             realtime=False,
             stats_capacity=max(1, round(rate_hz)),
             slack=self._slack,
+            spin_us=spin_us,
         )
         self.overruns = OverrunWatch(self.loop, self.core)
         #: Deadline time [s] of the last cycle (the loop's ``t``), for the measured period.

@@ -150,6 +150,7 @@ class Daemon:
             cfg.loop.solver,
             cfg.obstacles,
             collect_in_slack=cfg.realtime.collect_in_slack,
+            spin_us=cfg.realtime.spin_us,
         )
         self.controller.stop_timeout = cfg.stop_timeout_s
         if cfg.blackbox.dir is not None:
@@ -419,6 +420,12 @@ def _main(args: argparse.Namespace) -> int:
         cfg.loop.rate_hz,
         address,
     )
+    if cfg.realtime.spin_us:
+        _log.info(
+            "the loop busy-waits the last %g us before each deadline (realtime.spin_us): "
+            "its CPU stays busy that long every period",
+            cfg.realtime.spin_us,
+        )
     systemd.notify("READY=1", f"STATUS=ready on {address}")
     try:
         daemon.run()
