@@ -243,4 +243,5 @@ def test_the_spin_must_leave_part_of_the_period_to_sleep(tmp_path: Path):
         load_config(path)
     message = str(err.value)
     assert message.startswith(str(path)), message
-    assert "realtime.spin_us (1000) must be below the loop's period (1000 µs" in message, message
+    assert ": realtime: " in message and "spin_us (1000) must be below the loop's period" in message
+    assert "(1000 µs at loop.rate_hz 1000)" in message, message

@@ -14,7 +14,15 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from controller.contract.corba_config import CorbaConfig, corba_problems, corba_warnings
 from controller.model.obstacles import Obstacle, check_unique
@@ -223,15 +231,19 @@ class DaemonConfig(_Strict):
         parse_listen(value)
         return value
 
-    @model_validator(mode="after")
-    def _spin_within_the_period(self) -> DaemonConfig:
-        period_us = 1e6 / self.loop.rate_hz
-        if self.realtime.spin_us >= period_us:
+    @field_validator("realtime")
+    @classmethod
+    def _spin_within_the_period(cls, value: RealtimeConfig, info: ValidationInfo) -> RealtimeConfig:
+        loop = info.data.get("loop")  # validated before (declared first); absent if invalid
+        if loop is None:
+            return value
+        period_us = 1e6 / loop.rate_hz
+        if value.spin_us >= period_us:
             raise ValueError(
-                f"realtime.spin_us ({self.realtime.spin_us:g}) must be below the loop's period "
-                f"({period_us:g} µs at loop.rate_hz {self.loop.rate_hz:g})"
+                f"spin_us ({value.spin_us:g}) must be below the loop's period "
+                f"({period_us:g} µs at loop.rate_hz {loop.rate_hz:g})"
             )
-        return self
+        return value
 
     @property
     def period(self) -> float:
