@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from controller.control.loop import MIN_SLEEP_SHARE
+from controller.control.loop import spin_start
 
 #: The control loop's SCHED_FIFO priority (controller.control.realtime's default).
 LOOP_PRIORITY = 80
@@ -47,8 +47,8 @@ def bare_loop(
 ) -> dict[str, Any]:
     """Sleep to ``rate`` [Hz] deadlines for ``seconds`` [s] in this thread (SCHED_FIFO
     ``priority`` when permitted), the last ``spin_us`` [µs] before each busy-waiting (as
-    the loop with ``realtime.spin_us``, after a sleep of at least MIN_SLEEP_SHARE of the
-    period); the late count and wake latencies [µs], and with
+    the loop with ``realtime.spin_us``, by its rule: ``controller.control.loop.spin_start``);
+    the late count and wake latencies [µs], and with
     ``threshold_us`` the wakes later than it (module doc)."""
     fifo = True
     try:
@@ -57,7 +57,6 @@ def bare_loop(
         fifo = False
     period = round(1e9 / rate)
     spin = round(spin_us * 1e3)
-    least = round(MIN_SLEEP_SHARE * period)  # as the loop: no spin without a sleep
     n = max(1, int(rate * seconds))
     wake = np.zeros(n)
     clock = time.monotonic_ns
@@ -65,7 +64,7 @@ def bare_loop(
     for k in range(n):
         deadline = t0 + (k + 1) * period
         now = clock()
-        spin_from = max(deadline - spin, min(now + least, deadline)) if spin else deadline
+        spin_from = spin_start(deadline, now, spin, period)  # the loop's rule
         if spin_from > now:
             time.sleep((spin_from - now) / 1e9)
             now = clock()

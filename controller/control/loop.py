@@ -43,6 +43,15 @@ DEFAULT_HISTORY_S = 10.0
 MIN_SLEEP_SHARE = 0.1
 
 
+def spin_start(deadline: int, now: int, spin_ns: int, period_ns: int) -> int:
+    """When to stop sleeping before ``deadline`` [ns], at ``now`` [ns]: ``spin_ns`` before
+    it, or later so that the sleep lasts at least :data:`MIN_SLEEP_SHARE` of ``period_ns``
+    (up to the deadline when less is left); without a spin, the deadline itself."""
+    if not spin_ns:
+        return deadline
+    return max(deadline - spin_ns, min(now + round(MIN_SLEEP_SHARE * period_ns), deadline))
+
+
 def percentiles(values: np.ndarray, q: tuple[float, ...]) -> list[float]:
     """The ``q`` percentiles [%] of ``values`` as ``np.percentile`` gives them (linear
     interpolation between the closest ranks), then the maximum, from one partial sort of
@@ -170,8 +179,6 @@ class FixedRateLoop:
         if not (math.isfinite(spin_us) and 0.0 <= spin_us * 1e3 < self.period_ns):
             raise ValueError(f"spin_us must be within 0..period, got {spin_us!r}")
         self.spin_ns = round(spin_us * 1e3)
-        #: The least sleep before a deadline when spinning [ns] (see MIN_SLEEP_SHARE).
-        self._min_sleep_ns = round(MIN_SLEEP_SHARE * self.period_ns)
         self.step = step
         self.slack = slack
         self.realtime = realtime
@@ -270,15 +277,11 @@ class FixedRateLoop:
         return self._clock_ns, self.period_ns, self.stats, self.step, self._stop
 
     def _wait_until(self, deadline: int) -> int:
-        """Sleep, then spin, until ``deadline`` [ns]; returns the wake time [ns]. The spin
-        starts ``spin_us`` before the deadline, or later so that the sleep before it lasts
-        at least :data:`MIN_SLEEP_SHARE` of the period (up to the deadline when less is
-        left): without a spin, a sleep up to the deadline."""
+        """Sleep, then spin (from :func:`spin_start`), until ``deadline`` [ns]; returns the
+        wake time [ns]."""
         clock = self._clock_ns
         now = clock()
-        spin_from = deadline
-        if self.spin_ns:
-            spin_from = max(deadline - self.spin_ns, min(now + self._min_sleep_ns, deadline))
+        spin_from = spin_start(deadline, now, self.spin_ns, self.period_ns)
         while spin_from - now > 0:
             self._sleep((spin_from - now) / 1e9)
             now = clock()
