@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import select
 import struct
 
+import can
 import numpy as np
 import pytest
 
@@ -11,7 +13,8 @@ from controller.model import jit
 from hal.can.unix_wire import HEADER
 from hal.emulator.bank import INT, DriveBank
 from hal.emulator.codes import NMT_OPERATIONAL
-from hal.emulator.inbox import route_frames, split_records
+from hal.emulator.inbox import Inbox, route_frames, split_records
+from hal.emulator.port import Port
 
 # Run with IMOTION_JIT=0 too: the tests ask for the compiled round explicitly.
 pytestmark = pytest.mark.skipif(jit.numba is None, reason="numba not installed")
@@ -100,3 +103,46 @@ def test_a_short_rpdo_and_an_unknown_identifier_stop_the_walk():
     assert _route(bank, [_frame(0x201, b"\x0f\x00", 1.0)]) == 0
     assert _route(bank, [_frame(0x203, struct.pack("<Hi", 0x0F, 5), 1.0)]) == 0
     assert not bank.ints[:, INT["rx_fresh"]].any()
+
+
+def _unix_ports(tmp_path, names: tuple[str, ...]) -> tuple[list[Port], list[can.BusABC]]:
+    """Ports (no drives: every frame goes to the Python handler) on ``unix`` buses, each with a
+    master joined to it."""
+    ports = [Port(n, "unix", str(tmp_path / n), []) for n in names]
+    for port in ports:
+        port.attach(can.Bus(interface="unix", channel=port.channel))
+    return ports, [can.Bus(interface="unix", channel=port.channel) for port in ports]
+
+
+@pytest.mark.parametrize("gather", [False, True])
+def test_a_master_behind_frame_by_frame_is_handled_in_the_order_it_sent(tmp_path, gather):
+    """Frame by frame (one record each, no hold_pdos) and two rounds behind: bus 0's second
+    SYNC must come after bus 1's first, whether the buses are drained whole or read a record
+    per peer and round while ``more`` names buses."""
+    ports, masters = _unix_ports(tmp_path, ("a", "b"))
+    sent = [  # (bus, identifier), in the order sent, stamps increasing
+        (0, 0x201), (0, 0x080), (1, 0x202), (1, 0x203), (1, 0x204), (1, 0x080),
+        (0, 0x201), (0, 0x080), (1, 0x202), (1, 0x203), (1, 0x204), (1, 0x080),
+    ]  # fmt: skip
+    for k, (bus, can_id) in enumerate(sent):
+        data = b"" if can_id == 0x080 else bytes(6)
+        masters[bus].send(can.Message(timestamp=100.0 + k, arbitration_id=can_id, data=data,
+                                      is_extended_id=False))  # fmt: skip
+    handled: list[tuple[int, int]] = []
+    inbox = Inbox(ports, DriveBank(0).ints,
+                  lambda port, can_id, _: handled.append((ports.index(port), can_id)))  # fmt: skip
+    asked: list[list[int]] = []
+
+    def more() -> list[int]:
+        waiting = [k for k, p in enumerate(ports) if select.select([p.bus], [], [], 0.0)[0]]
+        asked.append(waiting)
+        return waiting
+
+    try:
+        n = inbox.handle([0, 1], more if gather else None)
+    finally:
+        for bus in [*masters, *(p.bus for p in ports)]:
+            bus.shutdown()
+    assert n == len(sent) and handled == sent  # handled per round, bus 0 would run ahead
+    if gather:  # a record per peer and round: bus 1's eight, then nothing left
+        assert len(asked) == 8 and asked[-1] == []

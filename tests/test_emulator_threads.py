@@ -4,15 +4,26 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import can
 import pytest
 
 from controller.model.robot import load_robot
+from hal.can.unix_wire import HEADER
 from hal.emulator.emulator import DriveEmulator
 from hal.emulator.port import Port
 from hal.emulator.threads import BusThreads
+
+
+def _starts(record: bytes) -> list[int]:
+    """Where each frame of a ``unix`` record starts."""
+    starts, at = [], 0
+    while at < len(record):
+        starts.append(at)
+        at += HEADER.size + HEADER.unpack_from(record, at)[3]
+    return starts
 
 
 @pytest.fixture(scope="module")
@@ -74,13 +85,28 @@ def test_unix_buses_are_served_by_one_select_thread(pa10, tmp_path):
                 bus.shutdown()
 
 
-def _bus_threads(ports: list[Port]) -> tuple[BusThreads, list[tuple[str, int]], threading.Event]:
-    """BusThreads over ``ports`` whose callables record the frames and ticks they get."""
+def _bus_threads(
+    ports: list[Port], rounds: list[int] | None = None
+) -> tuple[BusThreads, list[tuple[str, int]], threading.Event]:
+    """BusThreads over ``ports`` whose callables record the frames and ticks they get; the
+    handler reads a record per peer while ``more`` names ports (as the emulator's inbox) and
+    counts its rounds in ``rounds``."""
     got: list[tuple[str, int]] = []
     ticked = threading.Event()
 
-    def handle(ready: list[Port]) -> int:
-        frames = [(port.name, can_id) for port in ready for _, can_id, _ in port.receive()]
+    def handle(ready: list[Port], more: Callable[[], list[Port]]) -> int:
+        frames, k = [], 0
+        while ready:
+            k += 1
+            frames += [
+                (port.name, HEADER.unpack_from(record, start)[0])
+                for port in ready
+                for record in port.records(drain=False)
+                for start in _starts(record)
+            ]
+            ready = more()
+        if rounds is not None:
+            rounds.append(k)
         got.extend(frames)
         return len(frames)
 
@@ -126,3 +152,23 @@ def test_bus_threads_hand_each_bus_frames_over_and_tick_until_stopped(interface,
             if bus is not None:
                 bus.shutdown()
     assert service.threads == [] and not service.running
+
+
+def test_the_select_loop_names_the_ports_left_to_read_until_none(tmp_path: Path):
+    port = Port("a", "unix", str(tmp_path / "a"), [])
+    port.attach(can.Bus(interface="unix", channel=port.channel))
+    master = can.Bus(interface="unix", channel=port.channel)
+    ids = list(range(0x101, 0x109))
+    for can_id in ids:  # eight records waiting on one peer before the loop starts
+        master.send(can.Message(arbitration_id=can_id, data=b"\x01", is_extended_id=False))
+    rounds: list[int] = []
+    service, got, _ = _bus_threads([port], rounds)
+    try:
+        service.start()
+        assert _wait(lambda: len(got) >= len(ids))
+    finally:
+        service.stop()
+        master.shutdown()
+        port.bus.shutdown()
+    assert got == [("a", can_id) for can_id in ids]
+    assert rounds[0] == len(ids)  # a record a round, all read before the handler returned

@@ -382,11 +382,17 @@ class DriveEmulator:
                     log.warning("bus %s: shutdown failed: %s", port.name, exc)
                 port.attach(None)
 
-    def _handle(self, ports: list[Port]) -> int:
+    def _handle(self, ports: list[Port], more: Callable[[], list[Port]] | None = None) -> int:
         """Every frame waiting on ``ports``, in the order they were sent (their timestamps):
-        a SYNC round is then seen as the master sent it, however the buses were read."""
+        a SYNC round is then seen as the master sent it, however the buses were read.
+        ``more``: the ports that still hold something, for reading a record per peer and
+        asking once for all buses (:meth:`Inbox.handle`)."""
         if self._inbox is not None:
-            return self._inbox.handle([self._port_index[port.name] for port in ports])
+            index = self._port_index
+            indices = [index[port.name] for port in ports]
+            if more is None:
+                return self._inbox.handle(indices)
+            return self._inbox.handle(indices, lambda: [index[port.name] for port in more()])
         frames: list[tuple[float, int, int, bytes]] = []
         for k, port in enumerate(ports):
             try:

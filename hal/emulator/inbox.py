@@ -26,6 +26,9 @@ from hal.emulator.port import Port
 
 log = logging.getLogger(__name__)
 
+#: Rounds of reads at most before what was read is handled (:meth:`Inbox.handle` with
+#: ``more``: a peer sending without pause must not keep the emulator reading).
+GATHER = 16
 #: Bytes of a frame header on the ``unix`` wire (``<IBBBxd``), where its fields are.
 _HEADER = 16
 _FLAGS, _LENGTH, _STAMP = 4, 6, 8
@@ -178,20 +181,34 @@ class Inbox:
                 self.routes[j] = port.fast_routes()
                 port.fast_key = key
 
-    def handle(self, ready: Sequence[int] | None = None) -> int:
+    def handle(
+        self, ready: Sequence[int] | None = None, more: Callable[[], Sequence[int]] | None = None
+    ) -> int:
         """Every frame waiting on the buses ``ready`` (indices; default: all), in the order
-        they were sent; how many."""
+        they were sent; how many.
+
+        ``more``: the buses that still hold something (one system call for all of them, e.g.
+        an ``epoll`` over their descriptors). Then each read takes one record of each peer
+        of a ``unix`` bus (a ``recv`` each, no ``epoll`` round per bus, :meth:`Port.records`),
+        again while ``more`` names buses (at most :data:`GATHER` rounds), and everything
+        read is handled together: in the order sent across buses, as a full drain of each
+        would (a master that fell behind and sent frame by frame has its next round's SYNC
+        on one bus handled after this round's on the others, as sent)."""
         records: list[bytes] = []
         record_ports: list[int] = []
-        for k in range(len(self._ports)) if ready is None else ready:
-            port = self._ports[k]
-            try:
-                got = port.records()
-            except Exception as exc:
-                log.error("bus %s: receive failed: %s", port.name, exc)
-                continue
-            records += got
-            record_ports += [k] * len(got)
+        buses: Sequence[int] = range(len(self._ports)) if ready is None else ready
+        for _ in range(GATHER if more is not None else 1):
+            for k in buses:
+                port = self._ports[k]
+                try:
+                    got = port.records(more is None)
+                except Exception as exc:
+                    log.error("bus %s: receive failed: %s", port.name, exc)
+                    continue
+                records += got
+                record_ports += [k] * len(got)
+            if more is None or not (buses := more()):
+                break
         if not records:
             return 0
         joined = b"".join(records)

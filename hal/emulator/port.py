@@ -154,13 +154,16 @@ class Port:
             return np.full(0x800, -1, dtype=np.int64)
         return self._fast
 
-    def records(self) -> list[bytes]:
+    def records(self, drain: bool = True) -> list[bytes]:
         """Every frame waiting (no wait), as records of frames in the ``unix`` wire format
-        (:mod:`hal.can.unix_wire`): as received on a ``unix`` bus, else encoded here."""
+        (:mod:`hal.can.unix_wire`): as received on a ``unix`` bus, else encoded here.
+        ``drain=False``: on a ``unix`` bus one record of each peer (a ``recv`` each, no
+        ``epoll`` round; for a caller that waits on the bus's descriptor, readable while
+        more waits)."""
         if self.bus is None:
             return []
         if self._recv_records is not None:
-            records, others = self._recv_records(True)
+            records, others = self._recv_records(drain)
             if others:  # read by recv() before: they came first
                 records = [b"".join(encode(msg) for msg in others), *records]
             return records

@@ -39,17 +39,18 @@ CATCH_UP = 20
 
 
 class BusThreads:
-    """The threads serving ``ports`` (module doc). ``handle(ports)`` handles every frame
-    waiting on those ports and says how many; ``process(port, msg)`` one frame of a bus
-    without a descriptor; ``tick(now)`` the heartbeats; ``lock`` is held around each;
-    ``clock`` [s] is the heartbeats'. ``priority``: SCHED_FIFO priority of every thread (0:
-    normal scheduling)."""
+    """The threads serving ``ports`` (module doc). ``handle(ports, more)`` handles the
+    frames waiting on those ports and says how many; ``more()``, which it may call, names
+    the ports that still hold something (one ``epoll`` for all of them);
+    ``process(port, msg)`` one frame of a bus without a descriptor; ``tick(now)`` the
+    heartbeats; ``lock`` is held around each; ``clock`` [s] is the heartbeats'.
+    ``priority``: SCHED_FIFO priority of every thread (0: normal scheduling)."""
 
     def __init__(
         self,
         ports: list[Port],
         lock: threading.RLock,
-        handle: Callable[[list[Port]], int],
+        handle: Callable[[list[Port], Callable[[], list[Port]]], int],
         process: Callable[[Port, can.Message], None],
         tick: Callable[[float], None],
         clock: Callable[[], float],
@@ -129,6 +130,14 @@ class BusThreads:
         waiter = select.epoll()
         for fd in fds:
             waiter.register(fd, select.EPOLLIN)
+
+        def more() -> list[Port]:
+            """The ports that still hold something (an error: none; the next wait says why)."""
+            try:
+                return [fds[fd] for fd, _ in waiter.poll(0)]
+            except (OSError, ValueError):
+                return []
+
         self._realtime()
         next_tick = 0.0
         try:
@@ -143,7 +152,7 @@ class BusThreads:
                     start = time.monotonic()
                     handled = 0
                     for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
-                        handled += self._handle([fds[fd] for fd in ready])  # the ticks below
+                        handled += self._handle([fds[fd] for fd in ready], more)  # the ticks
                         if self._clock() >= next_tick + TICK:  # see every heartbeat; ticks due
                             break
                         try:  # the buses that got more meanwhile (one system call for all)
