@@ -390,9 +390,8 @@ class DriveEmulator:
         if self._inbox is not None:
             index = self._port_index
             indices = [index[port.name] for port in ports]
-            if more is None:
-                return self._inbox.handle(indices)
-            return self._inbox.handle(indices, lambda: [index[port.name] for port in more()])
+            more_indices = None if more is None else lambda: [index[p.name] for p in more()]
+            return self._inbox.handle(indices, more_indices)
         frames: list[tuple[float, int, int, bytes]] = []
         for k, port in enumerate(ports):
             try:

@@ -143,7 +143,7 @@ class BusThreads:
         try:
             while self._running.is_set():
                 try:
-                    ready = [fd for fd, _ in waiter.poll(TICK)]
+                    ready = [fds[fd] for fd, _ in waiter.poll(TICK)]
                 except (OSError, ValueError) as exc:
                     if self._running.is_set():
                         log.error("emulator: wait failed, the emulator stops: %s", exc)
@@ -152,14 +152,10 @@ class BusThreads:
                     start = time.monotonic()
                     handled = 0
                     for _ in range(CATCH_UP if ready else 0):  # what came meanwhile too, so
-                        handled += self._handle([fds[fd] for fd in ready], more)  # the ticks
-                        if self._clock() >= next_tick + TICK:  # see every heartbeat; ticks due
+                        handled += self._handle(ready, more)  # the ticks below see every
+                        if self._clock() >= next_tick + TICK:  # heartbeat; ticks due
                             break
-                        try:  # the buses that got more meanwhile (one system call for all)
-                            ready = [fd for fd, _ in waiter.poll(0)]
-                        except (OSError, ValueError):
-                            break  # the next wait says why
-                        if not ready:
+                        if not (ready := more()):  # the buses that got more meanwhile
                             break
                     took = time.monotonic() - start
                     if took > SLOW_BATCH:
